@@ -1,0 +1,64 @@
+//! Criterion benchmarks of the random-field kernels (run with `cargo bench`).
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kalmanfield::cascade::{sample_into, stream_frame_into};
+use kalmanfield::{FieldModel, Noise};
+
+fn one_thread<R>(f: impl FnOnce() -> R + Send) -> R
+where
+    R: Send,
+{
+    rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(f)
+}
+
+fn bench_sample(c: &mut Criterion) {
+    let mut group = c.benchmark_group("sample_2d");
+    group.sample_size(10);
+    for order in [1usize, 2, 4] {
+        let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
+        let side = 2048;
+        group.throughput(Throughput::Elements((side * side) as u64));
+        let mut out64 = vec![0.0f64; side * side];
+        group.bench_function(BenchmarkId::new("f64_1thread", order), |b| {
+            b.iter(|| one_thread(|| sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap()))
+        });
+        group.bench_function(BenchmarkId::new("f64_all_threads", order), |b| {
+            b.iter(|| sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap())
+        });
+        let mut out32 = vec![0.0f32; side * side];
+        group.bench_function(BenchmarkId::new("f32_1thread", order), |b| {
+            b.iter(|| one_thread(|| sample_into(&model, &mut out32, &[side, side], Noise::Seeded(1)).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+fn bench_noise(c: &mut Criterion) {
+    let mut group = c.benchmark_group("white_noise");
+    let len = 1 << 16;
+    group.throughput(Throughput::Elements(len as u64));
+    let mut line = vec![0.0f64; len];
+    group.bench_function("fill_line", |b| b.iter(|| Noise::Seeded(1).fill(&mut line, 0)));
+    group.finish();
+}
+
+fn bench_stream(c: &mut Criterion) {
+    let mut group = c.benchmark_group("stream_1024");
+    group.sample_size(20);
+    let model = FieldModel::new(&[0.95, 0.9, 0.9], &[1, 2, 2], 1.0).unwrap();
+    let side = 1024;
+    let previous = vec![0.5f64; side * side];
+    let mut frame = vec![0.0f64; side * side];
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("frame_1thread", |b| {
+        b.iter(|| {
+            one_thread(|| {
+                stream_frame_into(&model, &mut frame, &[side, side], &[&previous], 5, Noise::Seeded(1)).unwrap()
+            })
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_sample, bench_noise, bench_stream);
+criterion_main!(benches);

@@ -1,0 +1,82 @@
+"""Argument checks shared by the public API: every bad input becomes a clear Python exception
+before any kernel runs."""
+
+from __future__ import annotations
+
+import numbers
+import os
+from collections.abc import Sequence
+from typing import Any, Union
+
+import numpy as np
+import numpy.typing as npt
+
+SeedLike = Union[int, np.integer, np.random.Generator, None]
+ShapeLike = Union[int, Sequence[int]]
+
+_U64 = 1 << 64
+
+
+def resolve_seed(seed: SeedLike) -> int:
+    """A 64-bit seed from an int, a NumPy Generator (one draw) or None (fresh OS entropy)."""
+    if seed is None:
+        return int(np.random.SeedSequence().generate_state(1, dtype=np.uint64)[0])
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, _U64, dtype=np.uint64))
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
+        raise TypeError(f"seed must be an int, a numpy Generator or None, got {type(seed).__name__}")
+    seed = int(seed)
+    if not 0 <= seed < _U64:
+        raise ValueError(f"seed must be in [0, 2**64), got {seed}")
+    return seed
+
+
+def positive_int(value: Any, name: str) -> int:
+    """An int ≥ 1 (numpy integers accepted, bools and floats refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be a positive integer, got {value!r}")
+    if int(value) < 1:
+        raise ValueError(f"{name} must be a positive integer, got {int(value)}")
+    return int(value)
+
+
+def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, ...]:
+    """A shape of `ndim` positive ints."""
+    items = (shape,) if isinstance(shape, numbers.Integral) else tuple(shape)
+    dims = tuple(positive_int(s, f"every entry of {name}") for s in items)
+    if len(dims) != ndim:
+        raise ValueError(f"{name} {dims} has {len(dims)} axes but the model has {ndim}")
+    return dims
+
+
+def float_dtype(dtype: npt.DTypeLike) -> np.dtype:
+    """float32 or float64."""
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise TypeError(f"dtype must be float32 or float64, got {dt}")
+    return dt
+
+
+def allocate(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+    """An empty C-ordered array, refusing sizes beyond the machine's physical memory."""
+    nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    try:
+        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        physical = None
+    if physical is not None and nbytes > physical:
+        raise MemoryError(
+            f"a {shape} {dtype} array needs {nbytes / 2**30:.1f} GiB, more than the "
+            f"{physical / 2**30:.1f} GiB of memory of this machine"
+        )
+    return np.empty(shape, dtype=dtype)
+
+
+def finite_noise(noise: npt.ArrayLike, shape: tuple[int, ...], name: str = "noise") -> np.ndarray:
+    """Caller-supplied white noise as a C-contiguous float64 array of exactly `shape`."""
+    arr = np.ascontiguousarray(noise, dtype=np.float64)
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    return arr

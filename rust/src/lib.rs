@@ -1,0 +1,20 @@
+//! kalmanfield: Markov (autoregressive) random fields and Kalman recursions for image
+//! sequences. Plain-Rust numerics; the optional `python` feature adds the `_core` bindings.
+//!
+//! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
+
+pub mod anisotropy;
+pub mod axis_model;
+pub mod cascade;
+pub mod error;
+pub mod field_model;
+pub mod noise;
+pub mod product_field;
+pub mod stationary_start;
+
+#[cfg(feature = "python")]
+mod python;
+
+pub use error::{FieldError, Result};
+pub use field_model::FieldModel;
+pub use noise::Noise;

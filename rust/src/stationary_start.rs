@@ -1,0 +1,113 @@
+//! Exactly stationary recursion along one axis, edges included (SPEC §1.3, [P 4.1–4.4]).
+//!
+//! Element l < n of a line is predicted from the l elements before it by the order-l model
+//! fitted to the true R (Levinson–Durbin on R); from element n on the full AR(n) model runs.
+//! Started this way, every line has covariance exactly Toeplitz(R) (it is the Cholesky
+//! factor of that matrix applied to white noise).
+
+use crate::axis_model::AxisModel;
+use num_traits::Float;
+
+/// Per-position coefficients of the stationary-start recursion of one axis.
+///
+/// Position l uses `coeffs[min(l, n)]` (a_1..a_m, most recent first) and `gains[min(l, n)]`:
+/// x_l = gains[m] ξ_l + Σ_{i=1..m} coeffs[m][i-1] x_{l-i}.
+#[derive(Debug, Clone)]
+pub struct AxisRecursion<T> {
+    coeffs: Vec<Vec<T>>,
+    gains: Vec<T>,
+}
+
+impl<T: Float> AxisRecursion<T> {
+    /// Builds the recursion of `axis` with every gain multiplied by `scale` (σ_x for the axis
+    /// that is applied last, 1 otherwise).
+    pub fn new(axis: &AxisModel, scale: f64) -> Self {
+        let n = axis.order();
+        let (mut coeffs, mut errors) = levinson(axis);
+        // The order-n fit is the model itself: use the analytic values, not rounded ones.
+        coeffs[n] = axis.ar_coefficients();
+        errors[n] = axis.beta_tilde_sq();
+        let cast = |v: f64| T::from(v).expect("f64 converts to every float type");
+        Self {
+            coeffs: coeffs
+                .into_iter()
+                .map(|c| c.into_iter().map(cast).collect())
+                .collect(),
+            gains: errors.into_iter().map(|e| cast(scale * e.sqrt())).collect(),
+        }
+    }
+
+    /// The multiplicity n of the axis.
+    pub fn order(&self) -> usize {
+        self.gains.len() - 1
+    }
+
+    /// (coefficients, gain) used at position `l` along the axis.
+    pub fn at(&self, l: usize) -> (&[T], T) {
+        let m = l.min(self.order());
+        (&self.coeffs[m], self.gains[m])
+    }
+}
+
+/// Levinson–Durbin on R(0..n): prediction coefficients and error variances of orders 0..n.
+fn levinson(axis: &AxisModel) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let n = axis.order();
+    let r: Vec<f64> = (0..=n).map(|k| axis.correlation(k as f64)).collect();
+    let mut coeffs = vec![Vec::new()];
+    let mut errors = vec![r[0]];
+    for m in 1..=n {
+        let prev = &coeffs[m - 1];
+        let e = errors[m - 1];
+        let k = (r[m] - (1..m).map(|i| prev[i - 1] * r[m - i]).sum::<f64>()) / e;
+        let mut next: Vec<f64> = (1..m).map(|i| prev[i - 1] - k * prev[m - i - 1]).collect();
+        next.push(k);
+        coeffs.push(next);
+        errors.push(e * (1.0 - k * k));
+    }
+    (coeffs, errors)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levinson_reaches_the_model() {
+        for n in 1..=4 {
+            let axis = AxisModel::new(0.85, n).unwrap();
+            let (coeffs, errors) = levinson(&axis);
+            for (a, b) in coeffs[n].iter().zip(axis.ar_coefficients()) {
+                assert!((a - b).abs() < 1e-9, "order {n}: {a} vs {b}");
+            }
+            assert!((errors[n] - axis.beta_tilde_sq()).abs() < 1e-10);
+        }
+    }
+
+    /// The recursion written as a lower-triangular matrix L must satisfy L Lᵀ = Toeplitz(R).
+    #[test]
+    fn recursion_is_cholesky_of_toeplitz() {
+        let axis = AxisModel::new(0.7, 3).unwrap();
+        let rec = AxisRecursion::<f64>::new(&axis, 1.0);
+        let len = 9;
+        // column j of L = response of the recursion to a unit impulse at j
+        let mut l = vec![vec![0.0; len]; len];
+        for j in 0..len {
+            let mut x = vec![0.0; len];
+            for i in 0..len {
+                let (a, b) = rec.at(i);
+                let xi = if i == j { 1.0 } else { 0.0 };
+                x[i] = b * xi + a.iter().enumerate().map(|(p, c)| c * x[i - 1 - p]).sum::<f64>();
+            }
+            for i in 0..len {
+                l[i][j] = x[i];
+            }
+        }
+        for i in 0..len {
+            for j in 0..len {
+                let c: f64 = (0..len).map(|k| l[i][k] * l[j][k]).sum();
+                let want = axis.correlation(i as f64 - j as f64);
+                assert!((c - want).abs() < 1e-12, "({i},{j}): {c} vs {want}");
+            }
+        }
+    }
+}

@@ -1,0 +1,111 @@
+"""Bad input gives a clear ValueError/TypeError/MemoryError, never a panic or silent NaN."""
+
+import numpy as np
+import pytest
+
+import kalmanfield as kf
+
+
+@pytest.mark.parametrize(
+    "rho,order,match",
+    [
+        (1.0, 1, "between 0 and 1"),
+        (0.0, 1, "between 0 and 1"),
+        (-0.5, 1, "between 0 and 1"),
+        (float("nan"), 1, "between 0 and 1"),
+        (0.5, 0, "positive integer"),
+        (0.5, -2, "positive integer"),
+        ([0.5, 0.6], [1, 2, 3], "axes"),
+        ([], [], "at least one axis"),
+        (0.5, 99, "not supported"),
+    ],
+)
+def test_bad_model_parameters(rho, order, match):
+    with pytest.raises(ValueError, match=match):
+        kf.ARFieldModel(rho, order)
+
+
+@pytest.mark.parametrize("order", [1.5, "2", True, None])
+def test_non_integer_orders(order):
+    with pytest.raises(TypeError, match="order"):
+        kf.ARFieldModel(0.5, [order, 1])
+
+
+@pytest.mark.parametrize("sigma,exc", [(0.0, ValueError), (-1.0, ValueError), (np.inf, ValueError), ("1", TypeError)])
+def test_bad_sigma(sigma, exc):
+    with pytest.raises(exc, match="sigma"):
+        kf.ARFieldModel(0.5, 1, sigma)
+
+
+def test_bad_rho_type():
+    with pytest.raises(TypeError, match="rho"):
+        kf.ARFieldModel(["a"], [1])
+
+
+MODEL = kf.ARFieldModel([0.8, 0.7], [2, 1])
+
+
+@pytest.mark.parametrize(
+    "shape,exc,match",
+    [
+        ((0, 5), ValueError, "positive"),
+        ((-3, 5), ValueError, "positive"),
+        ((5,), ValueError, "axes"),
+        ((5, 5, 5), ValueError, "axes"),
+        ((5.0, 5), TypeError, "integer"),
+        ((10**7, 10**7), MemoryError, "GiB"),
+    ],
+)
+def test_bad_shapes(shape, exc, match):
+    with pytest.raises(exc, match=match):
+        MODEL.sample(shape, seed=0)
+
+
+def test_bad_noise():
+    with pytest.raises(ValueError, match="shape"):
+        MODEL.sample((4, 5), noise=np.zeros((5, 4)))
+    with pytest.raises(ValueError, match="NaN"):
+        MODEL.sample((2, 2), noise=[[0.0, np.nan], [0.0, 0.0]])
+    with pytest.raises(ValueError, match="NaN"):
+        MODEL.sample((2, 2), noise=[[0.0, np.inf], [0.0, 0.0]])
+
+
+def test_bad_seed_dtype_threads():
+    with pytest.raises(ValueError, match="seed"):
+        MODEL.sample((3, 3), seed=-1)
+    with pytest.raises(ValueError, match="seed"):
+        MODEL.sample((3, 3), seed=2**64)
+    with pytest.raises(TypeError, match="seed"):
+        MODEL.sample((3, 3), seed=1.5)
+    with pytest.raises(TypeError, match="dtype"):
+        MODEL.sample((3, 3), dtype=np.int32)
+    with pytest.raises(ValueError, match="threads"):
+        MODEL.sample((3, 3), threads=0)
+
+
+def test_bad_lags():
+    with pytest.raises(ValueError, match="lags"):
+        MODEL.correlation([1, 2, 3])
+    with pytest.raises(ValueError, match="NaN"):
+        MODEL.correlation([np.nan, 1])
+
+
+def test_product_field_bad_input():
+    with pytest.raises(ValueError, match="2 1-D arrays"):
+        kf.sample_product_field(MODEL, (3, 3), noise=[np.zeros(3)])
+    with pytest.raises(ValueError, match="noise\\[1\\]"):
+        kf.sample_product_field(MODEL, (3, 3), noise=[np.zeros(3), np.zeros(4)])
+    with pytest.raises(TypeError, match="ARFieldModel"):
+        kf.sample_product_field("model", (3, 3))
+
+
+def test_core_rejects_mismatched_output_without_panicking():
+    """The binding layer checks too (defence in depth)."""
+    with pytest.raises(ValueError):
+        MODEL._core.sample_into(np.empty((3, 4, 5)), 0, None, None)
+    with pytest.raises(TypeError):
+        MODEL._core.sample_into(np.empty((3, 4), dtype=np.int64), 0, None, None)
+    with pytest.raises(ValueError):
+        MODEL._core.sample_into(np.empty((3, 4)), 0, np.zeros((2, 2)), None)
+    with pytest.raises(ValueError):
+        MODEL._core.stream_into(np.empty(4), [], 3, 0, None, None)
