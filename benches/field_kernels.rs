@@ -8,7 +8,11 @@ fn one_thread<R>(f: impl FnOnce() -> R + Send) -> R
 where
     R: Send,
 {
-    rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(f)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(f)
 }
 
 fn bench_sample(c: &mut Criterion) {
@@ -20,14 +24,22 @@ fn bench_sample(c: &mut Criterion) {
         group.throughput(Throughput::Elements((side * side) as u64));
         let mut out64 = vec![0.0f64; side * side];
         group.bench_function(BenchmarkId::new("f64_1thread", order), |b| {
-            b.iter(|| one_thread(|| sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap()))
+            b.iter(|| {
+                one_thread(|| {
+                    sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap()
+                })
+            })
         });
         group.bench_function(BenchmarkId::new("f64_all_threads", order), |b| {
             b.iter(|| sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap())
         });
         let mut out32 = vec![0.0f32; side * side];
         group.bench_function(BenchmarkId::new("f32_1thread", order), |b| {
-            b.iter(|| one_thread(|| sample_into(&model, &mut out32, &[side, side], Noise::Seeded(1)).unwrap()))
+            b.iter(|| {
+                one_thread(|| {
+                    sample_into(&model, &mut out32, &[side, side], Noise::Seeded(1)).unwrap()
+                })
+            })
         });
     }
     group.finish();
@@ -38,7 +50,9 @@ fn bench_noise(c: &mut Criterion) {
     let len = 1 << 16;
     group.throughput(Throughput::Elements(len as u64));
     let mut line = vec![0.0f64; len];
-    group.bench_function("fill_line", |b| b.iter(|| Noise::Seeded(1).fill(&mut line, 0)));
+    group.bench_function("fill_line", |b| {
+        b.iter(|| Noise::Seeded(1).fill(&mut line, 0))
+    });
     group.finish();
 }
 
@@ -53,7 +67,15 @@ fn bench_stream(c: &mut Criterion) {
     group.bench_function("frame_1thread", |b| {
         b.iter(|| {
             one_thread(|| {
-                stream_frame_into(&model, &mut frame, &[side, side], &[&previous], 5, Noise::Seeded(1)).unwrap()
+                stream_frame_into(
+                    &model,
+                    &mut frame,
+                    &[side, side],
+                    &[&previous],
+                    5,
+                    Noise::Seeded(1),
+                )
+                .unwrap()
             })
         })
     });

@@ -17,7 +17,12 @@ def test_habibi_model_closed_form(rho):
 
 @pytest.mark.parametrize(
     "rho,order",
-    [([0.8, 0.8], [2, 2]), ([0.9, 0.7], [1, 3]), ([0.75, 0.75], [4, 4]), ([0.9, 0.8, 0.7], [1, 2, 2])],
+    [
+        ([0.8, 0.8], [2, 2]),
+        ([0.9, 0.7], [1, 3]),
+        ([0.75, 0.75], [4, 4]),
+        ([0.9, 0.8, 0.7], [1, 2, 2]),
+    ],
 )
 def test_matches_independent_quadrature(rho, order):
     got = kf.ARFieldModel(rho, order).anisotropy()

@@ -31,7 +31,9 @@ def test_non_integer_orders(order):
         kf.ARFieldModel(0.5, [order, 1])
 
 
-@pytest.mark.parametrize("sigma,exc", [(0.0, ValueError), (-1.0, ValueError), (np.inf, ValueError), ("1", TypeError)])
+@pytest.mark.parametrize(
+    "sigma,exc", [(0.0, ValueError), (-1.0, ValueError), (np.inf, ValueError), ("1", TypeError)]
+)
 def test_bad_sigma(sigma, exc):
     with pytest.raises(exc, match="sigma"):
         kf.ARFieldModel(0.5, 1, sigma)

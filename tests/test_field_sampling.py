@@ -45,7 +45,9 @@ def _empirical_covariance(model, shape, reps, seed):
     return x.T @ x / reps, x
 
 
-@pytest.mark.parametrize("rho,order", [([0.9, 0.7], [1, 1]), ([0.85, 0.9], [2, 3]), ([0.6, 0.95], [4, 2])])
+@pytest.mark.parametrize(
+    "rho,order", [([0.9, 0.7], [1, 1]), ([0.85, 0.9], [2, 3]), ([0.6, 0.95], [4, 2])]
+)
 def test_exactly_stationary_at_edges_and_corners(rho, order):
     """Empirical covariance of every pair of points of a small grid equals σ² Π R_k, corners and
     edges included, within 5 standard errors (Var of a sample covariance of a Gaussian pair is
@@ -79,7 +81,9 @@ def test_covariance_of_the_reference_is_exact():
     model = kf.ARFieldModel([0.9, 0.75], [3, 2], 2.0)
     shape = (4, 5)
     size = int(np.prod(shape))
-    columns = [model.sample(shape, noise=np.eye(size)[k].reshape(shape)).ravel() for k in range(size)]
+    columns = [
+        model.sample(shape, noise=np.eye(size)[k].reshape(shape)).ravel() for k in range(size)
+    ]
     lmat = np.array(columns).T
     idx = np.array(np.unravel_index(np.arange(size), shape)).T
     want = model.correlation(idx[:, None, :] - idx[None, :, :])
@@ -124,7 +128,9 @@ def test_product_field_equals_reference_and_has_the_model_covariance():
     rng = np.random.default_rng(0)
     noises = [rng.standard_normal(6), rng.standard_normal(9)]
     got = kf.sample_product_field(model, (6, 9), noise=noises)
-    np.testing.assert_allclose(got, ref.product_field(model.rho, model.order, 1.5, noises), rtol=1e-12)
+    np.testing.assert_allclose(
+        got, ref.product_field(model.rho, model.order, 1.5, noises), rtol=1e-12
+    )
     reps = 20000
     x = np.stack([kf.sample_product_field(model, (3, 3), seed=s).ravel() for s in range(reps)])
     emp = x.T @ x / reps

@@ -1,5 +1,3 @@
-from typing import Optional
-
 import numpy as np
 import numpy.typing as npt
 
@@ -16,8 +14,8 @@ class FieldModel:
         self,
         out: np.ndarray,
         seed: int,
-        noise: Optional[npt.NDArray[np.float64]] = None,
-        threads: Optional[int] = None,
+        noise: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
     ) -> None: ...
     def stream_into(
         self,
@@ -25,13 +23,13 @@ class FieldModel:
         history: list[np.ndarray],
         t: int,
         seed: int,
-        noise: Optional[npt.NDArray[np.float64]] = None,
-        threads: Optional[int] = None,
+        noise: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
     ) -> None: ...
     def product_into(
         self,
         out: np.ndarray,
         seed: int,
-        noise: Optional[list[npt.NDArray[np.float64]]] = None,
-        threads: Optional[int] = None,
+        noise: list[npt.NDArray[np.float64]] | None = None,
+        threads: int | None = None,
     ) -> None: ...

@@ -24,7 +24,9 @@ def resolve_seed(seed: SeedLike) -> int:
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, _U64, dtype=np.uint64))
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral):
-        raise TypeError(f"seed must be an int, a numpy Generator or None, got {type(seed).__name__}")
+        raise TypeError(
+            f"seed must be an int, a numpy Generator or None, got {type(seed).__name__}"
+        )
     seed = int(seed)
     if not 0 <= seed < _U64:
         raise ValueError(f"seed must be in [0, 2**64), got {seed}")

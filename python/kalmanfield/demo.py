@@ -1,6 +1,6 @@
 """The main job: simulate AR random fields and a space–time sequence, save them as PNG and .npy.
 
-    python -m kalmanfield.demo [--out DIR] [--size N] [--seed S]
+python -m kalmanfield.demo [--out DIR] [--size N] [--seed S]
 """
 
 from __future__ import annotations
@@ -48,7 +48,9 @@ def main(argv: list[str] | None = None) -> int:
             f"std {x.std():.3f}, A_tau {model.anisotropy():.4f}"
         )
 
-    product = sample_product_field(fields["eight_point_2x2"], (args.size, args.size), seed=args.seed)
+    product = sample_product_field(
+        fields["eight_point_2x2"], (args.size, args.size), seed=args.seed
+    )
     np.save(args.out / "product_2x2.npy", product)
     _save_png(args.out / "product_2x2.png", np.sign(product) * np.sqrt(np.abs(product)))
     print(f"product_2x2      kurtosis {np.mean(product**4) / np.mean(product**2) ** 2:.2f}")
@@ -58,8 +60,10 @@ def main(argv: list[str] | None = None) -> int:
     frames = stream.take(16)
     np.save(args.out / "sequence_16x256x256.npy", frames)
     _save_png(args.out / "sequence_strip.png", np.hstack(list(frames[:6])))
-    print(f"sequence: 16 frames of 256² from {space_time!r}, frame-to-frame corr "
-          f"{np.mean(frames[1:] * frames[:-1]):.3f} (model 0.9)")
+    print(
+        f"sequence: 16 frames of 256² from {space_time!r}, frame-to-frame corr "
+        f"{np.mean(frames[1:] * frames[:-1]):.3f} (model 0.9)"
+    )
     print(f"wrote {args.out.resolve()}")
     return 0
 

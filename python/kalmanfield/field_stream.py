@@ -62,7 +62,9 @@ class FieldStream:
         normal, shape `frame_shape`) instead of the seeded stream."""
         given = None if noise is None else finite_noise(noise, self.frame_shape)
         frame = allocate(self.frame_shape, self.dtype)
-        self.model._core.stream_into(frame, self._history, self.time, self.seed, given, self.threads)
+        self.model._core.stream_into(
+            frame, self._history, self.time, self.seed, given, self.threads
+        )
         self._history = [frame, *self._history][: self.model.order[0]]
         self.time += 1
         return frame.copy()

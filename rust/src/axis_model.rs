@@ -151,7 +151,11 @@ mod tests {
                 let m = AxisModel::new(rho, n).unwrap();
                 for k in 0..12 {
                     let want = impulse_correlation(rho, n, k);
-                    assert!((m.correlation(k as f64) - want).abs() < 1e-10, "n={n} rho={rho} k={k} {} {want}", m.correlation(k as f64));
+                    assert!(
+                        (m.correlation(k as f64) - want).abs() < 1e-10,
+                        "n={n} rho={rho} k={k} {} {want}",
+                        m.correlation(k as f64)
+                    );
                 }
             }
         }

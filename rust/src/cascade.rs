@@ -27,7 +27,12 @@ const CHUNK: usize = 256;
 /// Fills `out` (C order, `shape`) with one realisation of `model`.
 ///
 /// With `Noise::Given`, `values` must hold one standard-normal number per element (same shape).
-pub fn sample_into<T: Real>(model: &FieldModel, out: &mut [T], shape: &[usize], noise: Noise) -> Result<()> {
+pub fn sample_into<T: Real>(
+    model: &FieldModel,
+    out: &mut [T],
+    shape: &[usize],
+    noise: Noise,
+) -> Result<()> {
     check_grid(model.ndim(), out.len(), shape, "shape")?;
     check_noise(&noise, out.len())?;
     let recursions = model.recursions::<T>();
@@ -63,18 +68,33 @@ pub fn stream_frame_into<T: Real>(
     let noise = match noise {
         Noise::Given { values, .. } => {
             check_noise(&noise, frame.len())?;
-            Noise::Given { values, first_line: t * lines as u64 }
+            Noise::Given {
+                values,
+                first_line: t * lines as u64,
+            }
         }
         seeded => seeded,
     };
-    generate(frame, frame_shape, &recursions[1..], &noise, t * lines as u64);
+    generate(
+        frame,
+        frame_shape,
+        &recursions[1..],
+        &noise,
+        t * lines as u64,
+    );
     let position = t.min(recursions[0].order() as u64) as usize;
     let strip = 16 * STRIP;
-    frame.par_chunks_mut(strip).enumerate().for_each(|(s, cur)| {
-        let lo = s * strip;
-        let prev: Vec<&[T]> = history[..needed].iter().map(|h| &h[lo..lo + cur.len()]).collect();
-        slab_step(&recursions[0], position, cur, &prev);
-    });
+    frame
+        .par_chunks_mut(strip)
+        .enumerate()
+        .for_each(|(s, cur)| {
+            let lo = s * strip;
+            let prev: Vec<&[T]> = history[..needed]
+                .iter()
+                .map(|h| &h[lo..lo + cur.len()])
+                .collect();
+            slab_step(&recursions[0], position, cur, &prev);
+        });
     Ok(())
 }
 
@@ -85,8 +105,10 @@ fn check_grid(ndim: usize, len: usize, shape: &[usize], what: &str) -> Result<()
             shape.len()
         )));
     }
-    if shape.iter().any(|&s| s == 0) {
-        return Err(FieldError::Shape(format!("{what} {shape:?} has an empty axis")));
+    if shape.contains(&0) {
+        return Err(FieldError::Shape(format!(
+            "{what} {shape:?} has an empty axis"
+        )));
     }
     let total = shape.iter().try_fold(1usize, |acc, &s| acc.checked_mul(s));
     if total != Some(len) {
@@ -106,14 +128,22 @@ fn check_noise(noise: &Noise, len: usize) -> Result<()> {
             )));
         }
         if values.iter().any(|v| !v.is_finite()) {
-            return Err(FieldError::NonFinite("noise contains NaN or infinite values".into()));
+            return Err(FieldError::NonFinite(
+                "noise contains NaN or infinite values".into(),
+            ));
         }
     }
     Ok(())
 }
 
 /// Generates the grid `out` of `shape` whose first line has global index `first_line`.
-fn generate<T: Real>(out: &mut [T], shape: &[usize], recs: &[AxisRecursion<T>], noise: &Noise, first_line: u64) {
+fn generate<T: Real>(
+    out: &mut [T],
+    shape: &[usize],
+    recs: &[AxisRecursion<T>],
+    noise: &Noise,
+    first_line: u64,
+) {
     if rayon::current_num_threads() > 1 && out.len() >= PARALLEL_MIN {
         generate_parallel(out, shape, recs, noise, first_line);
     } else {
@@ -125,7 +155,13 @@ fn lines_per_slice(shape: &[usize]) -> u64 {
     shape[1..shape.len() - 1].iter().product::<usize>() as u64
 }
 
-fn generate_serial<T: Real>(out: &mut [T], shape: &[usize], recs: &[AxisRecursion<T>], noise: &Noise, first_line: u64) {
+fn generate_serial<T: Real>(
+    out: &mut [T],
+    shape: &[usize],
+    recs: &[AxisRecursion<T>],
+    noise: &Noise,
+    first_line: u64,
+) {
     if shape.len() == 1 {
         line_into(out, &recs[0], noise, first_line);
         return;
@@ -136,13 +172,27 @@ fn generate_serial<T: Real>(out: &mut [T], shape: &[usize], recs: &[AxisRecursio
     for i in 0..shape[0] {
         let (done, rest) = out.split_at_mut(i * slab);
         let cur = &mut rest[..slab];
-        generate_serial(cur, &shape[1..], &recs[1..], noise, first_line + i as u64 * lines);
-        let prev: Vec<&[T]> = (1..=i.min(n)).map(|j| &done[(i - j) * slab..(i - j + 1) * slab]).collect();
+        generate_serial(
+            cur,
+            &shape[1..],
+            &recs[1..],
+            noise,
+            first_line + i as u64 * lines,
+        );
+        let prev: Vec<&[T]> = (1..=i.min(n))
+            .map(|j| &done[(i - j) * slab..(i - j + 1) * slab])
+            .collect();
         slab_step(&recs[0], i, cur, &prev);
     }
 }
 
-fn generate_parallel<T: Real>(out: &mut [T], shape: &[usize], recs: &[AxisRecursion<T>], noise: &Noise, first_line: u64) {
+fn generate_parallel<T: Real>(
+    out: &mut [T],
+    shape: &[usize],
+    recs: &[AxisRecursion<T>],
+    noise: &Noise,
+    first_line: u64,
+) {
     if shape.len() == 1 {
         generate_serial(out, shape, recs, noise, first_line);
         return;
@@ -151,11 +201,23 @@ fn generate_parallel<T: Real>(out: &mut [T], shape: &[usize], recs: &[AxisRecurs
     let lines = lines_per_slice(shape);
     if shape[0] >= 4 * rayon::current_num_threads() || slab < PARALLEL_MIN {
         out.par_chunks_mut(slab).enumerate().for_each(|(i, cur)| {
-            generate_serial(cur, &shape[1..], &recs[1..], noise, first_line + i as u64 * lines)
+            generate_serial(
+                cur,
+                &shape[1..],
+                &recs[1..],
+                noise,
+                first_line + i as u64 * lines,
+            )
         });
     } else {
         for (i, cur) in out.chunks_mut(slab).enumerate() {
-            generate_parallel(cur, &shape[1..], &recs[1..], noise, first_line + i as u64 * lines);
+            generate_parallel(
+                cur,
+                &shape[1..],
+                &recs[1..],
+                noise,
+                first_line + i as u64 * lines,
+            );
         }
     }
     recurse_in_strips(out, shape[0], slab, &recs[0]);
@@ -171,22 +233,27 @@ unsafe impl<T: Send> Sync for SharedOut<T> {}
 fn recurse_in_strips<T: Real>(out: &mut [T], len: usize, slab: usize, rec: &AxisRecursion<T>) {
     let base = SharedOut(out.as_mut_ptr());
     let n = rec.order();
-    (0..slab.div_ceil(STRIP)).into_par_iter().for_each(move |s| {
-        let base = base;
-        let lo = s * STRIP;
-        let width = STRIP.min(slab - lo);
-        let mut prev: Vec<&[T]> = Vec::with_capacity(n);
-        for i in 0..len {
-            // SAFETY: this task alone touches columns lo..lo+width of every slice; `cur` (slice
-            // i) and `prev` (slices i-1..i-n) are disjoint, and all lie inside `out`.
-            let cur = unsafe { std::slice::from_raw_parts_mut(base.0.add(i * slab + lo), width) };
-            prev.clear();
-            for j in 1..=i.min(n) {
-                prev.push(unsafe { std::slice::from_raw_parts(base.0.add((i - j) * slab + lo), width) });
+    (0..slab.div_ceil(STRIP))
+        .into_par_iter()
+        .for_each(move |s| {
+            let base = base;
+            let lo = s * STRIP;
+            let width = STRIP.min(slab - lo);
+            let mut prev: Vec<&[T]> = Vec::with_capacity(n);
+            for i in 0..len {
+                // SAFETY: this task alone touches columns lo..lo+width of every slice; `cur` (slice
+                // i) and `prev` (slices i-1..i-n) are disjoint, and all lie inside `out`.
+                let cur =
+                    unsafe { std::slice::from_raw_parts_mut(base.0.add(i * slab + lo), width) };
+                prev.clear();
+                for j in 1..=i.min(n) {
+                    prev.push(unsafe {
+                        std::slice::from_raw_parts(base.0.add((i - j) * slab + lo), width)
+                    });
+                }
+                slab_step(rec, i, cur, &prev);
             }
-            slab_step(rec, i, cur, &prev);
-        }
-    });
+        });
 }
 
 /// cur ← g·cur + Σ_j a_j prev_j at `position` along the axis (prev[0] = the slice before).
@@ -273,8 +340,12 @@ mod tests {
 
     fn sample(model: &FieldModel, shape: &[usize], seed: u64, threads: usize) -> Vec<f64> {
         let mut out = vec![0.0; shape.iter().product()];
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| sample_into(model, &mut out, shape, Noise::Seeded(seed))).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| sample_into(model, &mut out, shape, Noise::Seeded(seed)))
+            .unwrap();
         out
     }
 
@@ -284,7 +355,10 @@ mod tests {
         let shape = [5, 70, 300];
         assert_eq!(sample(&model, &shape, 3, 1), sample(&model, &shape, 3, 2));
         let model = FieldModel::new(&[0.9, 0.8], &[2, 2], 1.0).unwrap();
-        assert_eq!(sample(&model, &[700, 600], 9, 1), sample(&model, &[700, 600], 9, 3));
+        assert_eq!(
+            sample(&model, &[700, 600], 9, 1),
+            sample(&model, &[700, 600], 9, 3)
+        );
     }
 
     #[test]
@@ -301,7 +375,11 @@ mod tests {
         }
         let se = 4.0 * (2.0f64 / reps as f64).sqrt() * 5.0; // 5 standard errors of s² (σ²=4)
         for a in acc {
-            assert!((a / reps as f64 - 4.0).abs() < se, "variance {}", a / reps as f64);
+            assert!(
+                (a / reps as f64 - 4.0).abs() < se,
+                "variance {}",
+                a / reps as f64
+            );
         }
     }
 
@@ -315,7 +393,15 @@ mod tests {
         for t in 0..6u64 {
             let mut frame = vec![0.0; frame_len];
             let history: Vec<&[f64]> = frames.iter().rev().take(2).map(|f| f.as_slice()).collect();
-            stream_frame_into(&model, &mut frame, &shape[1..], &history, t, Noise::Seeded(5)).unwrap();
+            stream_frame_into(
+                &model,
+                &mut frame,
+                &shape[1..],
+                &history,
+                t,
+                Noise::Seeded(5),
+            )
+            .unwrap();
             frames.push(frame);
         }
         assert_eq!(frames.concat(), whole);
@@ -328,7 +414,10 @@ mod tests {
         assert!(sample_into(&model, &mut out, &[2, 3, 1], Noise::Seeded(0)).is_err());
         assert!(sample_into(&model, &mut out, &[2, 4], Noise::Seeded(0)).is_err());
         let bad = [0.0, 1.0, f64::NAN, 0.0, 0.0, 0.0];
-        let given = Noise::Given { values: &bad, first_line: 0 };
+        let given = Noise::Given {
+            values: &bad,
+            first_line: 0,
+        };
         assert!(sample_into(&model, &mut out, &[2, 3], given).is_err());
         let mut empty: Vec<f64> = vec![];
         assert!(sample_into(&model, &mut empty, &[0, 3], Noise::Seeded(0)).is_err());

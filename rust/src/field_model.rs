@@ -38,7 +38,8 @@ impl FieldModel {
             .zip(order)
             .enumerate()
             .map(|(k, (&r, &n))| {
-                AxisModel::new(r, n).map_err(|e| FieldError::InvalidParameter(format!("axis {k}: {e}")))
+                AxisModel::new(r, n)
+                    .map_err(|e| FieldError::InvalidParameter(format!("axis {k}: {e}")))
             })
             .collect::<Result<Vec<_>>>()?;
         Ok(Self { axes, sigma })
@@ -58,7 +59,12 @@ impl FieldModel {
 
     /// β = σ Π_k β̃_k  [P 2.16].
     pub fn beta(&self) -> f64 {
-        self.sigma * self.axes.iter().map(|a| a.beta_tilde_sq().sqrt()).product::<f64>()
+        self.sigma
+            * self
+                .axes
+                .iter()
+                .map(|a| a.beta_tilde_sq().sqrt())
+                .product::<f64>()
     }
 
     /// The template c_j̄ = Π_k c_{k,j_k} over the (n_1+1)×…×(n_N+1) box, C order  [P 2.14].
@@ -67,7 +73,10 @@ impl FieldModel {
         let mut values = vec![1.0];
         for axis in &self.axes {
             let c = axis.template();
-            values = values.iter().flat_map(|v| c.iter().map(move |cj| v * cj)).collect();
+            values = values
+                .iter()
+                .flat_map(|v| c.iter().map(move |cj| v * cj))
+                .collect();
         }
         (values, shape)
     }
@@ -82,12 +91,21 @@ impl FieldModel {
             )));
         }
         if lags.iter().any(|v| !v.is_finite()) {
-            return Err(FieldError::NonFinite("lags contain NaN or infinite values".into()));
+            return Err(FieldError::NonFinite(
+                "lags contain NaN or infinite values".into(),
+            ));
         }
         let s2 = self.sigma * self.sigma;
         Ok(lags
             .chunks_exact(n)
-            .map(|lag| s2 * self.axes.iter().zip(lag).map(|(a, &r)| a.correlation(r)).product::<f64>())
+            .map(|lag| {
+                s2 * self
+                    .axes
+                    .iter()
+                    .zip(lag)
+                    .map(|(a, &r)| a.correlation(r))
+                    .product::<f64>()
+            })
             .collect())
     }
 

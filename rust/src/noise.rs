@@ -53,7 +53,9 @@ impl Noise<'_> {
 }
 
 fn fill_from<T: Real>(out: &mut [T], xi: impl Iterator<Item = f64>) {
-    out.iter_mut().zip(xi).for_each(|(v, x)| *v = T::from_f64(x));
+    out.iter_mut()
+        .zip(xi)
+        .for_each(|(v, x)| *v = T::from_f64(x));
 }
 
 /// The endless standard-normal sequence of line `line` under `seed`.
@@ -65,7 +67,12 @@ pub fn seeded_line(seed: u64, line: u64) -> impl Iterator<Item = f64> {
 
 /// The caller's noise of line `line` (of length `len`) when `values` starts at `first_line`.
 #[inline]
-pub fn given_line(values: &[f64], first_line: u64, line: u64, len: usize) -> impl Iterator<Item = f64> + '_ {
+pub fn given_line(
+    values: &[f64],
+    first_line: u64,
+    line: u64,
+    len: usize,
+) -> impl Iterator<Item = f64> + '_ {
     let start = (line - first_line) as usize * len;
     values[start..start + len].iter().copied()
 }

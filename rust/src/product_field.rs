@@ -28,10 +28,15 @@ pub fn product_field_into<T: Real>(
     }
     if let Some(g) = given {
         if g.len() != shape.len() || g.iter().zip(shape).any(|(s, &n)| s.len() != n) {
-            return Err(FieldError::Shape(format!("noise must be {} sequences of lengths {shape:?}", shape.len())));
+            return Err(FieldError::Shape(format!(
+                "noise must be {} sequences of lengths {shape:?}",
+                shape.len()
+            )));
         }
         if g.iter().any(|s| s.iter().any(|v| !v.is_finite())) {
-            return Err(FieldError::NonFinite("noise contains NaN or infinite values".into()));
+            return Err(FieldError::NonFinite(
+                "noise contains NaN or infinite values".into(),
+            ));
         }
     }
     let sequences: Vec<Vec<f64>> = model
@@ -43,7 +48,15 @@ pub fn product_field_into<T: Real>(
             let mut s = vec![0.0; len];
             let recursion = AxisRecursion::new(axis, 1.0);
             match given {
-                Some(g) => line_into(&mut s, &recursion, &Noise::Given { values: g[k], first_line: 0 }, 0),
+                Some(g) => line_into(
+                    &mut s,
+                    &recursion,
+                    &Noise::Given {
+                        values: g[k],
+                        first_line: 0,
+                    },
+                    0,
+                ),
                 None => line_into(&mut s, &recursion, &Noise::Seeded(seed), k as u64),
             }
             s
@@ -52,12 +65,20 @@ pub fn product_field_into<T: Real>(
     // outer product of axes 1.. (the slab), then one scaled copy per index of axis 0
     let mut slab = vec![1.0f64];
     for s in &sequences[1..] {
-        slab = slab.iter().flat_map(|v| s.iter().map(move |x| v * x)).collect();
+        slab = slab
+            .iter()
+            .flat_map(|v| s.iter().map(move |x| v * x))
+            .collect();
     }
     let sigma = model.sigma();
-    out.par_chunks_mut(slab.len()).zip(&sequences[0]).for_each(|(chunk, &s0)| {
-        let scale = sigma * s0;
-        chunk.iter_mut().zip(&slab).for_each(|(v, &p)| *v = T::from_f64(scale * p));
-    });
+    out.par_chunks_mut(slab.len())
+        .zip(&sequences[0])
+        .for_each(|(chunk, &s0)| {
+            let scale = sigma * s0;
+            chunk
+                .iter_mut()
+                .zip(&slab)
+                .for_each(|(v, &p)| *v = T::from_f64(scale * p));
+        });
     Ok(())
 }

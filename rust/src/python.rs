@@ -8,7 +8,10 @@ use crate::field_model::FieldModel;
 use crate::noise::{Noise, Real};
 use crate::product_field::product_field_into;
 use crate::stationary_start::AxisRecursion;
-use numpy::{Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods};
+use numpy::{
+    Element, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
@@ -22,7 +25,9 @@ impl From<FieldError> for PyErr {
 fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> PyResult<R> {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(PyValueError::new_err("threads must be a positive integer or None")),
+        Some(0) => Err(PyValueError::new_err(
+            "threads must be a positive integer or None",
+        )),
         Some(k) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(k)
@@ -36,13 +41,19 @@ fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -
 fn noise_slice<'a>(noise: &'a Option<PyReadonlyArrayDyn<'_, f64>>) -> PyResult<Option<&'a [f64]>> {
     noise
         .as_ref()
-        .map(|n| n.as_slice().map_err(|_| PyValueError::new_err("noise must be C-contiguous")))
+        .map(|n| {
+            n.as_slice()
+                .map_err(|_| PyValueError::new_err("noise must be C-contiguous"))
+        })
         .transpose()
 }
 
 fn seeded_or_given(seed: u64, given: Option<&[f64]>) -> Noise<'_> {
     match given {
-        Some(values) => Noise::Given { values, first_line: 0 },
+        Some(values) => Noise::Given {
+            values,
+            first_line: 0,
+        },
         None => Noise::Seeded(seed),
     }
 }
@@ -58,28 +69,38 @@ macro_rules! with_float_array {
     ($array:expr, |$out:ident, $shape:ident| $body:expr) => {{
         if let Ok(mut a) = $array.extract::<PyReadwriteArrayDyn<f64>>() {
             let $shape = a.shape().to_vec();
-            let $out = a.as_slice_mut().map_err(|_| PyValueError::new_err("output must be C-contiguous"))?;
+            let $out = a
+                .as_slice_mut()
+                .map_err(|_| PyValueError::new_err("output must be C-contiguous"))?;
             $body
         } else if let Ok(mut a) = $array.extract::<PyReadwriteArrayDyn<f32>>() {
             let $shape = a.shape().to_vec();
-            let $out = a.as_slice_mut().map_err(|_| PyValueError::new_err("output must be C-contiguous"))?;
+            let $out = a
+                .as_slice_mut()
+                .map_err(|_| PyValueError::new_err("output must be C-contiguous"))?;
             $body
         } else {
-            Err(PyTypeError::new_err("output must be a writable float64 or float32 numpy array"))
+            Err(PyTypeError::new_err(
+                "output must be a writable float64 or float32 numpy array",
+            ))
         }
     }};
 }
 
-fn history_slices<'py, T: Real + Element>(history: &'py [Bound<'py, PyAny>]) -> PyResult<Vec<PyReadonlyArrayDyn<'py, T>>> {
+fn history_slices<'py, T: Real + Element>(
+    history: &'py [Bound<'py, PyAny>],
+) -> PyResult<Vec<PyReadonlyArrayDyn<'py, T>>> {
     history
         .iter()
         .map(|h| {
-            h.extract::<PyReadonlyArrayDyn<T>>()
-                .map_err(|_| PyTypeError::new_err("history frames must have the dtype of the output"))
+            h.extract::<PyReadonlyArrayDyn<T>>().map_err(|_| {
+                PyTypeError::new_err("history frames must have the dtype of the output")
+            })
         })
         .collect()
 }
 
+#[allow(clippy::too_many_arguments)]
 fn stream_step<T: Real + Element>(
     py: Python<'_>,
     model: &FieldModel,
@@ -93,9 +114,16 @@ fn stream_step<T: Real + Element>(
     let arrays = history_slices::<T>(history)?;
     let slices = arrays
         .iter()
-        .map(|a| a.as_slice().map_err(|_| PyValueError::new_err("history frames must be C-contiguous")))
+        .map(|a| {
+            a.as_slice()
+                .map_err(|_| PyValueError::new_err("history frames must be C-contiguous"))
+        })
         .collect::<PyResult<Vec<&[T]>>>()?;
-    py.detach(|| with_threads(threads, || stream_frame_into(model, frame, shape, &slices, t, noise)))??;
+    py.detach(|| {
+        with_threads(threads, || {
+            stream_frame_into(model, frame, shape, &slices, t, noise)
+        })
+    })??;
     Ok(())
 }
 
@@ -103,7 +131,9 @@ fn stream_step<T: Real + Element>(
 impl PyFieldModel {
     #[new]
     fn new(rho: Vec<f64>, order: Vec<usize>, sigma: f64) -> PyResult<Self> {
-        Ok(Self { inner: FieldModel::new(&rho, &order, sigma)? })
+        Ok(Self {
+            inner: FieldModel::new(&rho, &order, sigma)?,
+        })
     }
 
     /// β = σ Π_k β̃_k  [P 2.16].
@@ -114,12 +144,18 @@ impl PyFieldModel {
     /// The template c_j̄ of shape (n_1+1, …, n_N+1)  [P 2.14].
     fn template<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let (values, shape) = self.inner.template();
-        Ok(PyArray1::from_vec(py, values).reshape(shape)?)
+        PyArray1::from_vec(py, values).reshape(shape)
     }
 
     /// σ² Π R_k(r_k) for an (M, N) array of lags.
-    fn correlation<'py>(&self, py: Python<'py>, lags: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let lags = lags.as_slice().map_err(|_| PyValueError::new_err("lags must be C-contiguous"))?;
+    fn correlation<'py>(
+        &self,
+        py: Python<'py>,
+        lags: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let lags = lags
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("lags must be C-contiguous"))?;
         Ok(PyArray1::from_vec(py, self.inner.correlation(lags)?))
     }
 
@@ -142,11 +178,22 @@ impl PyFieldModel {
 
     /// Fills `out` (float64/float32, C order) with one realisation (SPEC §1.2–1.3).
     #[pyo3(signature = (out, seed, noise=None, threads=None))]
-    fn sample_into(&self, py: Python<'_>, out: &Bound<'_, PyAny>, seed: u64, noise: Option<PyReadonlyArrayDyn<'_, f64>>, threads: Option<usize>) -> PyResult<()> {
+    fn sample_into(
+        &self,
+        py: Python<'_>,
+        out: &Bound<'_, PyAny>,
+        seed: u64,
+        noise: Option<PyReadonlyArrayDyn<'_, f64>>,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
         let given = noise_slice(&noise)?;
         let model = &self.inner;
         with_float_array!(out, |slice, shape| {
-            py.detach(|| with_threads(threads, || sample_into(model, slice, &shape, seeded_or_given(seed, given))))??;
+            py.detach(|| {
+                with_threads(threads, || {
+                    sample_into(model, slice, &shape, seeded_or_given(seed, given))
+                })
+            })??;
             Ok(())
         })
     }
@@ -154,26 +201,58 @@ impl PyFieldModel {
     /// Frame `t` of a stream (axis 0 = time); `history` = previous frames, most recent first.
     #[pyo3(signature = (out, history, t, seed, noise=None, threads=None))]
     #[allow(clippy::too_many_arguments)]
-    fn stream_into(&self, py: Python<'_>, out: &Bound<'_, PyAny>, history: Vec<Bound<'_, PyAny>>, t: u64, seed: u64, noise: Option<PyReadonlyArrayDyn<'_, f64>>, threads: Option<usize>) -> PyResult<()> {
+    fn stream_into(
+        &self,
+        py: Python<'_>,
+        out: &Bound<'_, PyAny>,
+        history: Vec<Bound<'_, PyAny>>,
+        t: u64,
+        seed: u64,
+        noise: Option<PyReadonlyArrayDyn<'_, f64>>,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
         let given = noise_slice(&noise)?;
         let model = &self.inner;
-        with_float_array!(out, |slice, shape| stream_step(py, model, slice, &shape, &history, t, seeded_or_given(seed, given), threads))
+        with_float_array!(out, |slice, shape| stream_step(
+            py,
+            model,
+            slice,
+            &shape,
+            &history,
+            t,
+            seeded_or_given(seed, given),
+            threads
+        ))
     }
 
     /// Fills `out` with the product field of SPEC §1.4; `noise` = one 1-D array per axis.
     #[pyo3(signature = (out, seed, noise=None, threads=None))]
-    fn product_into(&self, py: Python<'_>, out: &Bound<'_, PyAny>, seed: u64, noise: Option<Vec<PyReadonlyArray1<'_, f64>>>, threads: Option<usize>) -> PyResult<()> {
+    fn product_into(
+        &self,
+        py: Python<'_>,
+        out: &Bound<'_, PyAny>,
+        seed: u64,
+        noise: Option<Vec<PyReadonlyArray1<'_, f64>>>,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
         let slices = noise
             .as_ref()
             .map(|v| {
                 v.iter()
-                    .map(|a| a.as_slice().map_err(|_| PyValueError::new_err("noise must be C-contiguous")))
+                    .map(|a| {
+                        a.as_slice()
+                            .map_err(|_| PyValueError::new_err("noise must be C-contiguous"))
+                    })
                     .collect::<PyResult<Vec<&[f64]>>>()
             })
             .transpose()?;
         let model = &self.inner;
         with_float_array!(out, |slice, shape| {
-            py.detach(|| with_threads(threads, || product_field_into(model, slice, &shape, seed, slices.as_deref())))??;
+            py.detach(|| {
+                with_threads(threads, || {
+                    product_field_into(model, slice, &shape, seed, slices.as_deref())
+                })
+            })??;
             Ok(())
         })
     }

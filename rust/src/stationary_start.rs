@@ -90,21 +90,24 @@ mod tests {
         let rec = AxisRecursion::<f64>::new(&axis, 1.0);
         let len = 9;
         // column j of L = response of the recursion to a unit impulse at j
-        let mut l = vec![vec![0.0; len]; len];
-        for j in 0..len {
-            let mut x = vec![0.0; len];
-            for i in 0..len {
-                let (a, b) = rec.at(i);
-                let xi = if i == j { 1.0 } else { 0.0 };
-                x[i] = b * xi + a.iter().enumerate().map(|(p, c)| c * x[i - 1 - p]).sum::<f64>();
-            }
-            for i in 0..len {
-                l[i][j] = x[i];
-            }
-        }
+        let columns: Vec<Vec<f64>> = (0..len)
+            .map(|j| {
+                let mut x = vec![0.0; len];
+                for i in 0..len {
+                    let (a, b) = rec.at(i);
+                    let xi = if i == j { 1.0 } else { 0.0 };
+                    x[i] = b * xi
+                        + a.iter()
+                            .enumerate()
+                            .map(|(p, c)| c * x[i - 1 - p])
+                            .sum::<f64>();
+                }
+                x
+            })
+            .collect();
         for i in 0..len {
             for j in 0..len {
-                let c: f64 = (0..len).map(|k| l[i][k] * l[j][k]).sum();
+                let c: f64 = columns.iter().map(|col| col[i] * col[j]).sum();
                 let want = axis.correlation(i as f64 - j as f64);
                 assert!((c - want).abs() < 1e-12, "({i},{j}): {c} vs {want}");
             }

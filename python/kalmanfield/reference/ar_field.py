@@ -22,7 +22,7 @@ def axis_ar_coefficients(rho: float, n: int) -> np.ndarray:
 
 def beta_tilde_sq(rho: float, n: int) -> float:
     """β̃² = (1-ρ²)^{2n-1} / Σ_l (C(n-1,l) ρ^l)²  [P 2.11, 2.12]."""
-    return (1 - rho**2) ** (2 * n - 1) / sum((comb(n - 1, l) * rho**l) ** 2 for l in range(n))
+    return (1 - rho**2) ** (2 * n - 1) / sum((comb(n - 1, ell) * rho**ell) ** 2 for ell in range(n))
 
 
 def axis_correlation(rho: float, n: int, lags: np.ndarray) -> np.ndarray:
@@ -31,12 +31,16 @@ def axis_correlation(rho: float, n: int, lags: np.ndarray) -> np.ndarray:
     k = np.abs(np.asarray(lags, dtype=float))
     b2 = beta_tilde_sq(rho, n)
     total = np.zeros_like(k)
-    for l in range(n):
+    for ell in range(n):
         rising = np.ones_like(k)
-        for i in range(l):
+        for i in range(ell):
             rising = rising * (n + k - 1 - i)
-        const = factorial(2 * n - l - 2) / (factorial(l) * factorial(n - 1) * factorial(n - l - 1))
-        total = total + const * rising * rho ** (2 * (n - l - 1)) / (1 - rho**2) ** (2 * n - l - 1)
+        const = factorial(2 * n - ell - 2) / (
+            factorial(ell) * factorial(n - 1) * factorial(n - ell - 1)
+        )
+        total = total + const * rising * rho ** (2 * (n - ell - 1)) / (1 - rho**2) ** (
+            2 * n - ell - 1
+        )
     return b2 * rho**k * total
 
 
@@ -88,7 +92,9 @@ def _recurse_axis(x: np.ndarray, axis: int, rho: float, n: int, scale: float = 1
     return np.moveaxis(out, 0, axis)
 
 
-def sample(rho: Sequence[float], order: Sequence[int], sigma: float, noise: np.ndarray) -> np.ndarray:
+def sample(
+    rho: Sequence[float], order: Sequence[int], sigma: float, noise: np.ndarray
+) -> np.ndarray:
     """x = σ L_0 ⋯ L_{N-1} ξ, each L_k the stationary-start recursion of axis k (SPEC §1.2–1.3)."""
     x = np.asarray(noise, dtype=float)
     for axis in reversed(range(x.ndim)):
@@ -97,7 +103,11 @@ def sample(rho: Sequence[float], order: Sequence[int], sigma: float, noise: np.n
 
 
 def stream_frame(
-    rho: Sequence[float], order: Sequence[int], sigma: float, history: list[np.ndarray], t: int,
+    rho: Sequence[float],
+    order: Sequence[int],
+    sigma: float,
+    history: list[np.ndarray],
+    t: int,
     noise: np.ndarray,
 ) -> np.ndarray:
     """Frame t of a stream (axis 0 = time) from its noise and the previous frames (most recent
