@@ -17,6 +17,22 @@ def test_stream_equals_one_shot_sample_with_the_same_seed():
     assert np.array_equal(frames, whole)
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_large_frames_equal_one_shot_on_any_thread_count(threads):
+    """Frames above the parallel threshold: the one-pass serial and the parallel paths."""
+    model = kf.ARFieldModel([0.8, 0.9, 0.7], [2, 3, 2], 1.0)
+    whole = model.sample((4, 260, 270), seed=3, threads=2)
+    stream = model.stream((260, 270), seed=3, threads=threads)
+    assert np.array_equal(stream.take(4), whole)
+
+
+def test_frames_are_read_only_state():
+    stream = kf.ARFieldModel([0.8, 0.9, 0.7], [1, 1, 1]).stream((4, 4), seed=0)
+    frame = next(stream)
+    with pytest.raises(ValueError, match="read-only"):
+        frame[0, 0] = 1.0
+
+
 def test_stream_with_given_noise_equals_one_shot_and_reference():
     model = kf.ARFieldModel([0.7, 0.6, 0.9], [3, 1, 2], 0.8)
     noise = np.random.default_rng(1).standard_normal((6, 5, 8))

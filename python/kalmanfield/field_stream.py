@@ -26,7 +26,8 @@ class FieldStream:
     n_t frames use the boundary recursion of SPEC §1.3).
 
     The stream is its own iterator (``next(stream)``), unbounded, and keeps only the last n_t
-    frames (memory O(n_t · frame)). Frame t draws the same noise as slice t of
+    frames (memory O(n_t · frame)). Frames are returned read-only because the stream keeps
+    the same arrays as its state (no copy per frame); ``frame.copy()`` gives a writable one. Frame t draws the same noise as slice t of
     ``model.sample((T, *frame_shape), seed)``, so the two agree. It pickles at any point; the
     unpickled copy continues bit-identically.
     """
@@ -65,9 +66,10 @@ class FieldStream:
         self.model._core.stream_into(
             frame, self._history, self.time, self.seed, given, self.threads
         )
+        frame.flags.writeable = False
         self._history = [frame, *self._history][: self.model.order[0]]
         self.time += 1
-        return frame.copy()
+        return frame
 
     def take(self, count: int) -> np.ndarray:
         """The next `count` frames stacked into an array of shape (count, *frame_shape)."""

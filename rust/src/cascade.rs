@@ -75,26 +75,32 @@ pub fn stream_frame_into<T: Real>(
         }
         seeded => seeded,
     };
-    generate(
-        frame,
-        frame_shape,
-        &recursions[1..],
-        &noise,
-        t * lines as u64,
-    );
+    let first_line = t * lines as u64;
     let position = t.min(recursions[0].order() as u64) as usize;
-    let strip = 16 * STRIP;
-    frame
-        .par_chunks_mut(strip)
-        .enumerate()
-        .for_each(|(s, cur)| {
-            let lo = s * strip;
-            let prev: Vec<&[T]> = history[..needed]
-                .iter()
-                .map(|h| &h[lo..lo + cur.len()])
-                .collect();
-            slab_step(&recursions[0], position, cur, &prev);
-        });
+    let history = &history[..needed];
+    // the time recursion on the part of the frame that starts at element `lo`
+    let time_step = |lo: usize, part: &mut [T]| {
+        let prev: Vec<&[T]> = history.iter().map(|h| &h[lo..lo + part.len()]).collect();
+        slab_step(&recursions[0], position, part, &prev);
+    };
+    if use_threads(frame.len()) {
+        generate_parallel(frame, frame_shape, &recursions[1..], &noise, first_line);
+        let strip = 16 * STRIP;
+        frame
+            .par_chunks_mut(strip)
+            .enumerate()
+            .for_each(|(s, part)| time_step(s * strip, part));
+    } else {
+        let slab = frame.len() / frame_shape[0];
+        generate_serial_then(
+            frame,
+            frame_shape,
+            &recursions[1..],
+            &noise,
+            first_line,
+            |i, part| time_step(i * slab, part),
+        );
+    }
     Ok(())
 }
 
@@ -144,11 +150,15 @@ fn generate<T: Real>(
     noise: &Noise,
     first_line: u64,
 ) {
-    if rayon::current_num_threads() > 1 && out.len() >= PARALLEL_MIN {
+    if use_threads(out.len()) {
         generate_parallel(out, shape, recs, noise, first_line);
     } else {
         generate_serial(out, shape, recs, noise, first_line);
     }
+}
+
+fn use_threads(len: usize) -> bool {
+    rayon::current_num_threads() > 1 && len >= PARALLEL_MIN
 }
 
 fn lines_per_slice(shape: &[usize]) -> u64 {
@@ -162,8 +172,22 @@ fn generate_serial<T: Real>(
     noise: &Noise,
     first_line: u64,
 ) {
+    generate_serial_then(out, shape, recs, noise, first_line, |_, _| {});
+}
+
+/// [`generate_serial`], calling `finish(i, slice_i)` on each slice of axis 0 as soon as the
+/// axis-0 recursion no longer reads it (n slices later), while it is still in cache.
+fn generate_serial_then<T: Real>(
+    out: &mut [T],
+    shape: &[usize],
+    recs: &[AxisRecursion<T>],
+    noise: &Noise,
+    first_line: u64,
+    mut finish: impl FnMut(usize, &mut [T]),
+) {
     if shape.len() == 1 {
         line_into(out, &recs[0], noise, first_line);
+        finish(0, out);
         return;
     }
     let slab = out.len() / shape[0];
@@ -172,17 +196,18 @@ fn generate_serial<T: Real>(
     for i in 0..shape[0] {
         let (done, rest) = out.split_at_mut(i * slab);
         let cur = &mut rest[..slab];
-        generate_serial(
-            cur,
-            &shape[1..],
-            &recs[1..],
-            noise,
-            first_line + i as u64 * lines,
-        );
+        let line = first_line + i as u64 * lines;
+        generate_serial(cur, &shape[1..], &recs[1..], noise, line);
         let prev: Vec<&[T]> = (1..=i.min(n))
             .map(|j| &done[(i - j) * slab..(i - j + 1) * slab])
             .collect();
         slab_step(&recs[0], i, cur, &prev);
+        if i >= n {
+            finish(i - n, &mut done[(i - n) * slab..(i - n + 1) * slab]);
+        }
+    }
+    for k in shape[0].saturating_sub(n)..shape[0] {
+        finish(k, &mut out[k * slab..(k + 1) * slab]);
     }
 }
 
