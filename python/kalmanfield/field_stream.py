@@ -27,8 +27,9 @@ class FieldStream:
 
     The stream is its own iterator (``next(stream)``), unbounded, and keeps only the last n_t
     frames (memory O(n_t · frame)). Frames are returned read-only because the stream keeps
-    the same arrays as its state (no copy per frame); ``frame.copy()`` gives a writable one. Frame t draws the same noise as slice t of
-    ``model.sample((T, *frame_shape), seed)``, so the two agree. It pickles at any point; the
+    the same arrays as its state (no copy per frame); ``frame.copy()`` gives a writable one.
+    Frame t draws the same noise as slice t of ``model.sample((T, *frame_shape), seed)``, so
+    the two agree. It pickles at any point; the
     unpickled copy continues bit-identically.
     """
 

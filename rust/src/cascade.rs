@@ -285,11 +285,29 @@ fn recurse_in_strips<T: Real>(out: &mut [T], len: usize, slab: usize, rec: &Axis
 /// Terms are added oldest first, as in [`filter_line`].
 pub fn slab_step<T: Real>(rec: &AxisRecursion<T>, position: usize, cur: &mut [T], prev: &[&[T]]) {
     let (a, g) = rec.at(position);
-    for (c, start) in cur.chunks_mut(CHUNK).zip((0..).step_by(CHUNK)) {
-        c.iter_mut().for_each(|v| *v = *v * g);
-        for (j, &aj) in a.iter().enumerate().rev() {
-            let p = &prev[j][start..start + c.len()];
-            c.iter_mut().zip(p).for_each(|(v, &pv)| *v = *v + aj * pv);
+    let len = cur.len();
+    match *a {
+        [] => cur.iter_mut().for_each(|v| *v = *v * g),
+        [a0] => {
+            let p0 = &prev[0][..len];
+            cur.iter_mut()
+                .zip(p0)
+                .for_each(|(v, &x0)| *v = *v * g + a0 * x0);
+        }
+        [a0, a1] => {
+            let (p0, p1) = (&prev[0][..len], &prev[1][..len]);
+            for ((v, &x0), &x1) in cur.iter_mut().zip(p0).zip(p1) {
+                *v = *v * g + a1 * x1 + a0 * x0;
+            }
+        }
+        _ => {
+            for (c, start) in cur.chunks_mut(CHUNK).zip((0..).step_by(CHUNK)) {
+                c.iter_mut().for_each(|v| *v = *v * g);
+                for (j, &aj) in a.iter().enumerate().rev() {
+                    let p = &prev[j][start..start + c.len()];
+                    c.iter_mut().zip(p).for_each(|(v, &pv)| *v = *v + aj * pv);
+                }
+            }
         }
     }
 }

@@ -61,8 +61,20 @@ fn fill_from<T: Real>(out: &mut [T], xi: impl Iterator<Item = f64>) {
 /// The endless standard-normal sequence of line `line` under `seed`.
 #[inline]
 pub fn seeded_line(seed: u64, line: u64) -> impl Iterator<Item = f64> {
-    let mut rng = line_rng(seed, line);
-    std::iter::repeat_with(move || rng.sample::<f64, _>(StandardNormal))
+    NormalStream(line_rng(seed, line))
+}
+
+/// Standard normals from one generator; `next` is forced inline so the recursion loop that
+/// consumes it can overlap drawing with its dependency chain.
+struct NormalStream(Xoshiro256PlusPlus);
+
+impl Iterator for NormalStream {
+    type Item = f64;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<f64> {
+        Some(self.0.sample::<f64, _>(StandardNormal))
+    }
 }
 
 /// The caller's noise of line `line` (of length `len`) when `values` starts at `first_line`.
