@@ -21,12 +21,14 @@ def models_and_shapes(draw):
 
 @given(models_and_shapes(), st.integers(0, 2**32))
 def test_rust_equals_reference_on_identical_noise(model_shape, seed):
-    """Includes 1×k lines and grids smaller than the order (only boundary models run)."""
+    """Includes 1×k lines and grids smaller than the order (only boundary models run).
+    Tolerance: for ρ near 1 and order 4 the boundary (Levinson) coefficients amplify the
+    1e-16 differences between the two evaluations of R(k) to ~1e-10."""
     model, shape = model_shape
     noise = np.random.default_rng(seed).standard_normal(shape)
     got = model.sample(shape, noise=noise)
     want = ref.sample(model.rho, model.order, model.sigma, noise)
-    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-10 * model.sigma)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * model.sigma)
 
 
 def test_large_grid_equals_reference_in_parallel():

@@ -13,7 +13,7 @@
 
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
-use crate::noise::{given_line, seeded_line, Noise, Real};
+use crate::noise::{Noise, Real};
 use crate::stationary_start::AxisRecursion;
 use rayon::prelude::*;
 
@@ -186,7 +186,7 @@ fn generate_serial_then<T: Real>(
     mut finish: impl FnMut(usize, &mut [T]),
 ) {
     if shape.len() == 1 {
-        line_into(out, &recs[0], noise, first_line);
+        lines_into(out, out.len(), &recs[0], noise, first_line);
         finish(0, out);
         return;
     }
@@ -195,9 +195,15 @@ fn generate_serial_then<T: Real>(
     let n = recs[0].order();
     for i in 0..shape[0] {
         let (done, rest) = out.split_at_mut(i * slab);
-        let cur = &mut rest[..slab];
         let line = first_line + i as u64 * lines;
-        generate_serial(cur, &shape[1..], &recs[1..], noise, line);
+        if shape.len() > 2 {
+            generate_serial(&mut rest[..slab], &shape[1..], &recs[1..], noise, line);
+        } else if i % 2 == 0 {
+            // slices are single lines: make them two at a time
+            let count = 2.min(shape[0] - i);
+            lines_into(&mut rest[..count * slab], slab, &recs[1], noise, line);
+        }
+        let cur = &mut rest[..slab];
         let prev: Vec<&[T]> = (1..=i.min(n))
             .map(|j| &done[(i - j) * slab..(i - j + 1) * slab])
             .collect();
@@ -224,7 +230,13 @@ fn generate_parallel<T: Real>(
     }
     let slab = out.len() / shape[0];
     let lines = lines_per_slice(shape);
-    if shape[0] >= 4 * rayon::current_num_threads() || slab < PARALLEL_MIN {
+    if shape.len() == 2 {
+        out.par_chunks_mut(2 * slab)
+            .enumerate()
+            .for_each(|(k, block)| {
+                lines_into(block, slab, &recs[1], noise, first_line + 2 * k as u64)
+            });
+    } else if shape[0] >= 4 * rayon::current_num_threads() || slab < PARALLEL_MIN {
         out.par_chunks_mut(slab).enumerate().for_each(|(i, cur)| {
             generate_serial(
                 cur,
@@ -312,64 +324,116 @@ pub fn slab_step<T: Real>(rec: &AxisRecursion<T>, position: usize, cur: &mut [T]
     }
 }
 
-/// Line `line` of the grid: its noise driven through the recursion of its axis. Drawing the
-/// noise inside the recursion loop lets the CPU overlap the two.
-pub fn line_into<T: Real>(out: &mut [T], rec: &AxisRecursion<T>, noise: &Noise, line: u64) {
-    match *noise {
-        Noise::Seeded(seed) => filter_line(out, rec, seeded_line(seed, line)),
-        Noise::Given { values, first_line } => {
-            filter_line(out, rec, given_line(values, first_line, line, out.len()))
+/// The whole lines of length `width` in `block`, the first being line `first_line` of the
+/// grid: their noise, then the recursion of their axis run over them in place, two lines at a
+/// time so that their independent dependency chains overlap. (Drawing a line's normals in a
+/// tight loop before the recursion measured faster than drawing them inside it.)
+pub fn lines_into<T: Real>(
+    block: &mut [T],
+    width: usize,
+    rec: &AxisRecursion<T>,
+    noise: &Noise,
+    first_line: u64,
+) {
+    for (k, line) in block.chunks_mut(width).enumerate() {
+        noise.fill(line, first_line + k as u64);
+    }
+    for pair in block.chunks_mut(2 * width) {
+        if pair.len() == 2 * width {
+            let (a, b) = pair.split_at_mut(width);
+            filter_pair(a, b, rec);
+        } else {
+            filter_line(pair, rec);
         }
     }
 }
 
-/// x_l = g_l ξ_l + Σ_j a_{l,j} x_{l-1-j} along `line`, with ξ from `xi`; terms are added oldest
-/// first, as in [`slab_step`].
-fn filter_line<T: Real>(line: &mut [T], rec: &AxisRecursion<T>, mut xi: impl Iterator<Item = f64>) {
+/// x_l = g_l ξ_l + Σ_j a_{l,j} x_{l-1-j} along a line holding ξ on entry; terms are added
+/// oldest first, as in [`slab_step`].
+fn filter_line<T: Real>(line: &mut [T], rec: &AxisRecursion<T>) {
+    filter_head(line, rec);
     let n = rec.order();
-    let mut xi = std::iter::from_fn(move || xi.next().map(T::from_f64));
-    for l in 0..n.min(line.len()) {
-        let (a, g) = rec.at(l);
-        let mut x = g * xi.next().unwrap_or_else(T::zero);
-        for (j, &aj) in a.iter().enumerate().rev() {
-            x = x + aj * line[l - 1 - j];
-        }
-        line[l] = x;
-    }
     if line.len() <= n {
         return;
     }
     let (a, g) = rec.at(n);
     match n {
-        1 => steady::<T, 1>(line, a, g, xi),
-        2 => steady::<T, 2>(line, a, g, xi),
-        3 => steady::<T, 3>(line, a, g, xi),
-        4 => steady::<T, 4>(line, a, g, xi),
-        _ => steady_any(line, a, g, xi),
+        1 => steady::<T, 1>(line, a, g),
+        2 => steady::<T, 2>(line, a, g),
+        3 => steady::<T, 3>(line, a, g),
+        4 => steady::<T, 4>(line, a, g),
+        _ => steady_any(line, a, g),
+    }
+}
+
+/// [`filter_line`] on two lines of equal length at once (same arithmetic per element).
+fn filter_pair<T: Real>(first: &mut [T], second: &mut [T], rec: &AxisRecursion<T>) {
+    let n = rec.order();
+    if first.len() <= n || n > 4 {
+        filter_line(first, rec);
+        filter_line(second, rec);
+        return;
+    }
+    filter_head(first, rec);
+    filter_head(second, rec);
+    let (a, g) = rec.at(n);
+    match n {
+        1 => steady_pair::<T, 1>(first, second, a, g),
+        2 => steady_pair::<T, 2>(first, second, a, g),
+        3 => steady_pair::<T, 3>(first, second, a, g),
+        _ => steady_pair::<T, 4>(first, second, a, g),
+    }
+}
+
+/// The first n positions of a line, each with its own boundary model (SPEC §1.3).
+fn filter_head<T: Real>(line: &mut [T], rec: &AxisRecursion<T>) {
+    for l in 0..rec.order().min(line.len()) {
+        let (a, g) = rec.at(l);
+        let mut x = g * line[l];
+        for (j, &aj) in a.iter().enumerate().rev() {
+            x = x + aj * line[l - 1 - j];
+        }
+        line[l] = x;
+    }
+}
+
+/// One step of the steady recursion: x = g ξ + Σ_j a_j w_j (oldest first); w shifts.
+#[inline(always)]
+fn step<T: Real, const N: usize>(xi: T, a: &[T; N], g: T, w: &mut [T; N]) -> T {
+    let mut x = g * xi;
+    for j in (0..N).rev() {
+        x = x + a[j] * w[j];
+    }
+    for j in (1..N).rev() {
+        w[j] = w[j - 1];
+    }
+    w[0] = x;
+    x
+}
+
+fn steady_pair<T: Real, const N: usize>(first: &mut [T], second: &mut [T], a: &[T], g: T) {
+    let a: [T; N] = std::array::from_fn(|j| a[j]);
+    let mut w1: [T; N] = std::array::from_fn(|j| first[N - 1 - j]);
+    let mut w2: [T; N] = std::array::from_fn(|j| second[N - 1 - j]);
+    for (v1, v2) in first[N..].iter_mut().zip(&mut second[N..]) {
+        *v1 = step(*v1, &a, g, &mut w1);
+        *v2 = step(*v2, &a, g, &mut w2);
     }
 }
 
 /// The steady part of a line (positions ≥ N) with the window of past values in registers.
-fn steady<T: Real, const N: usize>(line: &mut [T], a: &[T], g: T, xi: impl Iterator<Item = T>) {
+fn steady<T: Real, const N: usize>(line: &mut [T], a: &[T], g: T) {
     let a: [T; N] = std::array::from_fn(|j| a[j]);
     let mut w: [T; N] = std::array::from_fn(|j| line[N - 1 - j]);
-    for (v, e) in line[N..].iter_mut().zip(xi) {
-        let mut x = g * e;
-        for j in (0..N).rev() {
-            x = x + a[j] * w[j];
-        }
-        for j in (1..N).rev() {
-            w[j] = w[j - 1];
-        }
-        w[0] = x;
-        *v = x;
+    for v in &mut line[N..] {
+        *v = step(*v, &a, g, &mut w);
     }
 }
 
-fn steady_any<T: Real>(line: &mut [T], a: &[T], g: T, xi: impl Iterator<Item = T>) {
+fn steady_any<T: Real>(line: &mut [T], a: &[T], g: T) {
     let n = a.len();
-    for (l, e) in (n..line.len()).zip(xi) {
-        let mut x = g * e;
+    for l in n..line.len() {
+        let mut x = g * line[l];
         for (j, &aj) in a.iter().enumerate().rev() {
             x = x + aj * line[l - 1 - j];
         }

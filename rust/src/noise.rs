@@ -60,12 +60,11 @@ fn fill_from<T: Real>(out: &mut [T], xi: impl Iterator<Item = f64>) {
 
 /// The endless standard-normal sequence of line `line` under `seed`.
 #[inline]
-pub fn seeded_line(seed: u64, line: u64) -> impl Iterator<Item = f64> {
+fn seeded_line(seed: u64, line: u64) -> impl Iterator<Item = f64> {
     NormalStream(line_rng(seed, line))
 }
 
-/// Standard normals from one generator; `next` is forced inline so the recursion loop that
-/// consumes it can overlap drawing with its dependency chain.
+/// Standard normals from one generator (`next` forced inline into the fill loop).
 struct NormalStream(Xoshiro256PlusPlus);
 
 impl Iterator for NormalStream {
@@ -79,7 +78,7 @@ impl Iterator for NormalStream {
 
 /// The caller's noise of line `line` (of length `len`) when `values` starts at `first_line`.
 #[inline]
-pub fn given_line(
+fn given_line(
     values: &[f64],
     first_line: u64,
     line: u64,

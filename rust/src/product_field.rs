@@ -2,7 +2,7 @@
 //! unit-variance stationary 1-D sequences s^{(k)} of the axis models. Same correlation
 //! function as the Gaussian field, non-Gaussian marginal, O(1) work per element.
 
-use crate::cascade::line_into;
+use crate::cascade::lines_into;
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::noise::{Noise, Real};
@@ -47,18 +47,14 @@ pub fn product_field_into<T: Real>(
         .map(|(k, (axis, &len))| {
             let mut s = vec![0.0; len];
             let recursion = AxisRecursion::new(axis, 1.0);
-            match given {
-                Some(g) => line_into(
-                    &mut s,
-                    &recursion,
-                    &Noise::Given {
-                        values: g[k],
-                        first_line: 0,
-                    },
-                    0,
-                ),
-                None => line_into(&mut s, &recursion, &Noise::Seeded(seed), k as u64),
-            }
+            let noise = match given {
+                Some(g) => Noise::Given {
+                    values: g[k],
+                    first_line: k as u64,
+                },
+                None => Noise::Seeded(seed),
+            };
+            lines_into(&mut s, len, &recursion, &noise, k as u64);
             s
         })
         .collect();
