@@ -369,7 +369,7 @@ fn filter_line<T: Real>(line: &mut [T], rec: &AxisRecursion<T>) {
 /// [`filter_line`] on two lines of equal length at once (same arithmetic per element).
 fn filter_pair<T: Real>(first: &mut [T], second: &mut [T], rec: &AxisRecursion<T>) {
     let n = rec.order();
-    if first.len() <= n || n > 4 {
+    if !T::PAIRED_LINES || first.len() <= n || n > 4 {
         filter_line(first, rec);
         filter_line(second, rec);
         return;
@@ -416,8 +416,12 @@ fn steady_pair<T: Real, const N: usize>(first: &mut [T], second: &mut [T], a: &[
     let mut w1: [T; N] = std::array::from_fn(|j| first[N - 1 - j]);
     let mut w2: [T; N] = std::array::from_fn(|j| second[N - 1 - j]);
     for (v1, v2) in first[N..].iter_mut().zip(&mut second[N..]) {
-        *v1 = step(*v1, &a, g, &mut w1);
-        *v2 = step(*v2, &a, g, &mut w2);
+        // both loads before both stores (the lines' stride is often a multiple of 4 KiB)
+        let (xi1, xi2) = (*v1, *v2);
+        let x1 = step(xi1, &a, g, &mut w1);
+        let x2 = step(xi2, &a, g, &mut w2);
+        *v1 = x1;
+        *v2 = x2;
     }
 }
 
