@@ -70,12 +70,12 @@ pub fn stream_frame_into<T: Real>(
             check_noise(&noise, frame.len())?;
             Noise::Given {
                 values,
-                first_line: t * lines as u64,
+                first_line: t.wrapping_mul(lines as u64),
             }
         }
         seeded => seeded,
     };
-    let first_line = t * lines as u64;
+    let first_line = t.wrapping_mul(lines as u64);
     let position = t.min(recursions[0].order() as u64) as usize;
     let history = &history[..needed];
     // the time recursion on the part of the frame that starts at element `lo`
