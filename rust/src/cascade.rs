@@ -65,17 +65,14 @@ pub fn stream_frame_into<T: Real>(
         )));
     }
     let lines = frame.len() / frame_shape[frame_shape.len() - 1];
+    let first_line = t.wrapping_mul(lines as u64);
     let noise = match noise {
         Noise::Given { values, .. } => {
             check_noise(&noise, frame.len())?;
-            Noise::Given {
-                values,
-                first_line: t.wrapping_mul(lines as u64),
-            }
+            Noise::Given { values, first_line }
         }
         seeded => seeded,
     };
-    let first_line = t.wrapping_mul(lines as u64);
     let position = t.min(recursions[0].order() as u64) as usize;
     let history = &history[..needed];
     // the time recursion on the part of the frame that starts at element `lo`
@@ -236,25 +233,21 @@ fn generate_parallel<T: Real>(
             .for_each(|(k, block)| {
                 lines_into(block, slab, &recs[1], noise, first_line + 2 * k as u64)
             });
-    } else if shape[0] >= 4 * rayon::current_num_threads() || slab < PARALLEL_MIN {
-        out.par_chunks_mut(slab).enumerate().for_each(|(i, cur)| {
-            generate_serial(
-                cur,
-                &shape[1..],
-                &recs[1..],
-                noise,
-                first_line + i as u64 * lines,
-            )
-        });
     } else {
-        for (i, cur) in out.chunks_mut(slab).enumerate() {
-            generate_parallel(
-                cur,
-                &shape[1..],
-                &recs[1..],
-                noise,
-                first_line + i as u64 * lines,
-            );
+        // many slices: one task each; few large ones: parallel inside each slice
+        let nested = shape[0] < 4 * rayon::current_num_threads() && slab >= PARALLEL_MIN;
+        let make_slice = |(i, cur): (usize, &mut [T])| {
+            let line = first_line + i as u64 * lines;
+            if nested {
+                generate_parallel(cur, &shape[1..], &recs[1..], noise, line);
+            } else {
+                generate_serial(cur, &shape[1..], &recs[1..], noise, line);
+            }
+        };
+        if nested {
+            out.chunks_mut(slab).enumerate().for_each(make_slice);
+        } else {
+            out.par_chunks_mut(slab).enumerate().for_each(make_slice);
         }
     }
     recurse_in_strips(out, shape[0], slab, &recs[0]);

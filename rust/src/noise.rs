@@ -53,48 +53,21 @@ impl Noise<'_> {
     /// Writes the noise of line `line` (of length `out.len()`) into `out`.
     pub fn fill<T: Real>(&self, out: &mut [T], line: u64) {
         match *self {
-            Noise::Seeded(seed) => fill_from(out, seeded_line(seed, line)),
+            Noise::Seeded(seed) => {
+                let mut rng = line_rng(seed, line);
+                for v in out.iter_mut() {
+                    *v = T::from_f64(rng.sample::<f64, _>(StandardNormal));
+                }
+            }
             Noise::Given { values, first_line } => {
-                fill_from(out, given_line(values, first_line, line, out.len()))
+                let len = out.len();
+                let start = (line - first_line) as usize * len;
+                for (v, &g) in out.iter_mut().zip(&values[start..start + len]) {
+                    *v = T::from_f64(g);
+                }
             }
         }
     }
-}
-
-fn fill_from<T: Real>(out: &mut [T], xi: impl Iterator<Item = f64>) {
-    out.iter_mut()
-        .zip(xi)
-        .for_each(|(v, x)| *v = T::from_f64(x));
-}
-
-/// The endless standard-normal sequence of line `line` under `seed`.
-#[inline]
-fn seeded_line(seed: u64, line: u64) -> impl Iterator<Item = f64> {
-    NormalStream(line_rng(seed, line))
-}
-
-/// Standard normals from one generator (`next` forced inline into the fill loop).
-struct NormalStream(Xoshiro256PlusPlus);
-
-impl Iterator for NormalStream {
-    type Item = f64;
-
-    #[inline(always)]
-    fn next(&mut self) -> Option<f64> {
-        Some(self.0.sample::<f64, _>(StandardNormal))
-    }
-}
-
-/// The caller's noise of line `line` (of length `len`) when `values` starts at `first_line`.
-#[inline]
-fn given_line(
-    values: &[f64],
-    first_line: u64,
-    line: u64,
-    len: usize,
-) -> impl Iterator<Item = f64> + '_ {
-    let start = (line - first_line) as usize * len;
-    values[start..start + len].iter().copied()
 }
 
 fn splitmix64(mut z: u64) -> u64 {
