@@ -2,6 +2,8 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use kalmanfield::cascade::{sample_into, stream_frame_into};
+use kalmanfield::difference_gram::difference_gram;
+use kalmanfield::lag_products::lag_products;
 use kalmanfield::{FieldModel, Noise};
 
 fn one_thread<R>(f: impl FnOnce() -> R + Send) -> R
@@ -82,5 +84,33 @@ fn bench_stream(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_sample, bench_noise, bench_stream);
+/// The identification statistics (SPEC §1.6) of a 2048² field, one thread, per axis.
+fn bench_identification(c: &mut Criterion) {
+    let shape = [2048usize, 2048];
+    let model = FieldModel::new(&[0.9, 0.8], &[2, 3], 1.0).unwrap();
+    let mut field = vec![0.0f64; shape[0] * shape[1]];
+    sample_into(&model, &mut field, &shape, Noise::Seeded(1)).unwrap();
+    let mut group = c.benchmark_group("identification_2048");
+    group.throughput(Throughput::Elements(field.len() as u64));
+    group.sample_size(10);
+    for axis in [0usize, 1] {
+        group.bench_with_input(
+            BenchmarkId::new("difference_gram_m4", axis),
+            &axis,
+            |b, &a| b.iter(|| one_thread(|| difference_gram(&field, &shape, a, 4).unwrap())),
+        );
+        group.bench_with_input(BenchmarkId::new("lag_products_16", axis), &axis, |b, &a| {
+            b.iter(|| one_thread(|| lag_products(&field, &shape, a, 16).unwrap()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_sample,
+    bench_noise,
+    bench_stream,
+    bench_identification
+);
 criterion_main!(benches);

@@ -6,7 +6,21 @@ Formulas and their sources are in SPEC.md; each public item's docstring cites it
 
 from .ar_field_model import ARFieldModel
 from .field_stream import FieldStream
+from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
 from .product_field import sample_product_field
+from .sample_correlation import sample_correlation
+from .yule_walker import YuleWalkerModel, yule_walker
 
-__all__ = ["ARFieldModel", "FieldStream", "sample_product_field"]
+__all__ = [
+    "ARFieldModel",
+    "AxisFit",
+    "FieldStream",
+    "IdentifiedModel",
+    "WhitenessTest",
+    "YuleWalkerModel",
+    "identify",
+    "sample_correlation",
+    "sample_product_field",
+    "yule_walker",
+]
 __version__ = "0.1.0"

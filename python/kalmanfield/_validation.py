@@ -82,3 +82,33 @@ def finite_noise(noise: npt.ArrayLike, shape: tuple[int, ...], name: str = "nois
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} contains NaN or infinite values")
     return arr
+
+
+def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str = "data"):
+    """Data as a fresh C-ordered float64 array with NaN at every missing pixel, plus the
+    boolean array of valid pixels.
+
+    Missing: NaN or infinite values, pixels masked by a ``numpy.ma.MaskedArray`` and pixels
+    where ``mask`` is True (the ``numpy.ma`` convention: True marks a pixel to leave out).
+    Integer (uint8, uint16, …) and float inputs are accepted; bool and complex are refused.
+    """
+    missing = np.ma.getmaskarray(data) if isinstance(data, np.ma.MaskedArray) else None
+    raw = np.ma.getdata(data) if isinstance(data, np.ma.MaskedArray) else np.asarray(data)
+    if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
+        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    try:
+        values = np.array(raw, dtype=np.float64, order="C")
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"{name} must be a numeric array: {err}") from None
+    if mask is not None:
+        m = np.asarray(mask)
+        if m.shape != values.shape:
+            raise ValueError(f"mask must have the shape {values.shape} of {name}, got {m.shape}")
+        if m.dtype != np.bool_:
+            raise TypeError(f"mask must be a boolean array, got dtype {m.dtype}")
+        missing = m if missing is None else (missing | m)
+    valid = np.isfinite(values)
+    if missing is not None:
+        valid &= ~missing
+    values[~valid] = np.nan
+    return values, valid

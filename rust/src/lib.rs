@@ -4,13 +4,18 @@
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
 pub mod anisotropy;
+pub mod axis_lines;
 pub mod axis_model;
 pub mod cascade;
+pub mod chi_squared;
+pub mod difference_gram;
 pub mod error;
 pub mod field_model;
+pub mod lag_products;
 pub mod noise;
 pub mod product_field;
 pub mod stationary_start;
+pub mod whitening;
 
 #[cfg(feature = "python")]
 mod python;
