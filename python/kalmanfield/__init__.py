@@ -9,6 +9,8 @@ from .field_stream import FieldStream
 from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
 from .product_field import sample_product_field
 from .sample_correlation import sample_correlation
+from .vector_row_filter import VectorRowFilter
+from .wiener_bound import wiener_bound, wiener_error_map
 from .yule_walker import YuleWalkerModel, yule_walker
 
 __all__ = [
@@ -16,11 +18,14 @@ __all__ = [
     "AxisFit",
     "FieldStream",
     "IdentifiedModel",
+    "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",
     "identify",
     "sample_correlation",
     "sample_product_field",
+    "wiener_bound",
+    "wiener_error_map",
     "yule_walker",
 ]
 __version__ = "0.1.0"

@@ -6,6 +6,7 @@
 pub mod anisotropy;
 pub mod axis_lines;
 pub mod axis_model;
+pub mod axis_modes;
 pub mod cascade;
 pub mod chi_squared;
 pub mod difference_gram;
@@ -15,7 +16,9 @@ pub mod lag_products;
 pub mod noise;
 pub mod product_field;
 pub mod stationary_start;
+pub mod vector_row_filter;
 pub mod whitening;
+pub mod wiener_bound;
 
 #[cfg(feature = "python")]
 mod python;

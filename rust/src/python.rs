@@ -11,7 +11,9 @@ use crate::lag_products::lag_products as lag_kernel;
 use crate::noise::{Noise, Real};
 use crate::product_field::product_field_into;
 use crate::stationary_start::AxisRecursion;
+use crate::vector_row_filter::VectorRowFilter;
 use crate::whitening::whiten_axis;
+use crate::wiener_bound::{wiener_bound as bound_kernel, wiener_error_map};
 use numpy::{
     Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
@@ -338,9 +340,95 @@ fn chi2_quantile(p: f64, dof: f64) -> PyResult<f64> {
     Ok(chi_squared_quantile(p, dof)?)
 }
 
+/// The optimal vector row filter (SPEC §2.1–2.2); wrapped by `kalmanfield.VectorRowFilter`.
+#[pyclass(name = "VectorRowFilter", module = "kalmanfield._core", frozen)]
+pub struct PyVectorRowFilter {
+    inner: VectorRowFilter,
+}
+
+#[pymethods]
+impl PyVectorRowFilter {
+    #[new]
+    fn new(py: Python<'_>, model: &PyFieldModel, noise_var: f64, width: usize) -> PyResult<Self> {
+        let inner = py.detach(|| VectorRowFilter::new(&model.inner, noise_var, width))?;
+        Ok(Self { inner })
+    }
+
+    /// Filters z (height × width, or frames × height × width) into `out` (same shape).
+    #[pyo3(signature = (z, out, smooth, threads=None))]
+    fn filter_into(
+        &self,
+        py: Python<'_>,
+        z: PyReadonlyArrayDyn<'_, f64>,
+        mut out: PyReadwriteArrayDyn<'_, f64>,
+        smooth: bool,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
+        let shape = z.shape().to_vec();
+        if out.shape() != shape.as_slice() {
+            return Err(PyValueError::new_err("out must have the shape of z"));
+        }
+        let values = contiguous(&z, "z")?;
+        let target = out
+            .as_slice_mut()
+            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+        let filter = &self.inner;
+        py.detach(|| {
+            with_threads(threads, || match shape.as_slice() {
+                [h, _] => filter.filter_image(values, target, *h, smooth, true),
+                [f, h, _] => filter.filter_stack(values, target, *f, *h, smooth),
+                _ => Err(FieldError::Shape("z must be 2-D or 3-D".into())),
+            })
+        })??;
+        Ok(())
+    }
+
+    /// Per-pixel error variance map (height × width) of the filter or of the smoother.
+    fn error_variance<'py>(
+        &self,
+        py: Python<'py>,
+        height: usize,
+        smooth: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let width = self.inner.width();
+        let mut out = vec![0.0; height * width];
+        py.detach(|| self.inner.error_variance(height, smooth, &mut out))?;
+        PyArray1::from_vec(py, out).reshape([height, width])
+    }
+}
+
+/// Mean error variance of the best linear estimator on a height × width grid (SPEC §2.4).
+#[pyfunction]
+fn wiener_bound(
+    py: Python<'_>,
+    model: &PyFieldModel,
+    noise_var: f64,
+    height: usize,
+    width: usize,
+) -> PyResult<f64> {
+    Ok(py.detach(|| bound_kernel(&model.inner, noise_var, height, width))?)
+}
+
+/// Per-pixel error variance of the best linear estimator (SPEC §2.4).
+#[pyfunction]
+fn wiener_map<'py>(
+    py: Python<'py>,
+    model: &PyFieldModel,
+    noise_var: f64,
+    height: usize,
+    width: usize,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let mut out = vec![0.0; height * width];
+    py.detach(|| wiener_error_map(&model.inner, noise_var, height, width, &mut out))?;
+    PyArray1::from_vec(py, out).reshape([height, width])
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFieldModel>()?;
+    m.add_class::<PyVectorRowFilter>()?;
+    m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
+    m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;
     m.add_function(wrap_pyfunction!(lag_products, m)?)?;
     m.add_function(wrap_pyfunction!(whiten_axis_into, m)?)?;

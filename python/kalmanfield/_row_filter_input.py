@@ -1,0 +1,56 @@
+"""Argument checks shared by the row filters (SPEC §2)."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import numpy.typing as npt
+
+from .ar_field_model import ARFieldModel
+
+
+def row_model(model: object) -> ARFieldModel:
+    """A 2-axis ARFieldModel (axis 0 = rows) with n_y ≤ 4."""
+    if not isinstance(model, ARFieldModel):
+        raise TypeError(f"model must be a kalmanfield.ARFieldModel, got {type(model).__name__}")
+    if model.ndim != 2:
+        raise ValueError(f"row filters need a 2-axis model (rows, columns), got {model.ndim} axes")
+    if model.order[0] > 4:
+        raise ValueError(f"row filters support a row multiplicity up to 4, got {model.order[0]}")
+    return model
+
+
+def positive_float(value: object, name: str) -> float:
+    """A positive finite real number."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be positive and finite, got {value}")
+    return float(value)
+
+
+def images(z: npt.ArrayLike, width: int, allow_missing: bool) -> np.ndarray:
+    """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
+    uint8/uint16/int/float32 inputs are converted; bool and complex are refused."""
+    arr = np.asarray(z)
+    if arr.dtype == np.bool_ or np.issubdtype(arr.dtype, np.complexfloating):
+        raise TypeError(f"images must hold real numbers, got dtype {arr.dtype}")
+    try:
+        arr = np.ascontiguousarray(arr, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"images must be numeric arrays: {err}") from None
+    if arr.ndim not in (2, 3):
+        raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
+    if arr.shape[-1] != width:
+        raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
+    if arr.shape[-2] == 0:
+        raise ValueError("the images have no rows")
+    if np.isinf(arr).any():
+        raise ValueError("the images hold infinite pixels")
+    if not allow_missing and np.isnan(arr).any():
+        raise ValueError(
+            "the images hold NaN pixels: the vector filter needs every pixel "
+            "(ScalarRowFilter treats NaN as a missing observation)"
+        )
+    return arr

@@ -1,0 +1,28 @@
+"""The best linear (non-causal) estimator's error on a finite grid (SPEC §2.4)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from ._row_filter_input import positive_float, row_model
+from ._validation import ShapeLike, grid_shape
+from .ar_field_model import ARFieldModel
+
+
+def wiener_bound(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> float:
+    """Mean error variance of the best linear estimator of x from z = x + θ on a grid of
+    `shape` (H, W): the floor no filter can beat.
+
+    Exact: Cov(x) = σ² R_y ⊗ R_x, so with R = UΛUᵀ per axis the posterior covariance is
+    diagonal in U_y ⊗ U_x with entries f_ab = σ²λ_aμ_b σ_θ² / (σ²λ_aμ_b + σ_θ²); the bound is
+    their mean. O(H³ + W³) (faer eigendecompositions).
+    """
+    h, w = grid_shape(shape, 2)
+    return _core.wiener_bound(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)
+
+
+def wiener_error_map(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> np.ndarray:
+    """Per-pixel error variance of the best linear estimator: (U_y∘U_y) F (U_x∘U_x)ᵀ."""
+    h, w = grid_shape(shape, 2)
+    return _core.wiener_map(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)

@@ -1,0 +1,142 @@
+"""The optimal vector row filter and the Wiener bound (SPEC §2.1–2.2, §2.4)."""
+
+import pickle
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import kalmanfield as kf
+from kalmanfield.reference import row_filters as ref
+
+
+def noisy(model, shape, noise_var, seed):
+    rng = np.random.default_rng(seed)
+    x = model.sample(shape, seed=seed)
+    return x, x + np.sqrt(noise_var) * rng.standard_normal(shape)
+
+
+@given(
+    st.integers(1, 4),
+    st.integers(1, 4),
+    st.floats(0.3, 0.97),
+    st.floats(0.3, 0.97),
+    st.integers(1, 12),
+    st.integers(1, 10),
+    st.floats(0.05, 10.0),
+    st.booleans(),
+)
+def test_rust_equals_reference(n_y, n_x, rho_y, rho_x, height, width, noise_var, smooth):
+    model = kf.ARFieldModel([rho_y, rho_x], [n_y, n_x], sigma=1.3)
+    _, z = noisy(model, (height, width), noise_var, 3)
+    f = kf.VectorRowFilter(model, noise_var, width, smooth)
+    want, want_var = ref.vector_row_filter(z, model.rho, model.order, 1.3, noise_var, smooth)
+    scale = np.abs(z).max()
+    np.testing.assert_allclose(f.filter(z), want, atol=1e-9 * scale)
+    np.testing.assert_allclose(f.error_variance(height), want_var, atol=1e-10)
+
+
+@pytest.mark.parametrize("order", [(1, 1), (2, 1), (3, 2)])
+@pytest.mark.parametrize("smooth", [False, True])
+def test_equals_brute_force_gls(order, smooth):
+    # the whole 8×6 image as one Gaussian vector: causal row t conditions on rows 1..t
+    model = kf.ARFieldModel([0.85, 0.7], order, sigma=1.0)
+    _, z = noisy(model, (8, 6), 0.5, 7)
+    f = kf.VectorRowFilter(model, 0.5, 6, smooth)
+    want, want_var = ref.brute_force_kalman(z, model.rho, model.order, 1.0, 0.5, smooth)
+    np.testing.assert_allclose(f.filter(z), want, atol=1e-10)
+    np.testing.assert_allclose(f.error_variance(8), want_var, atol=1e-10)
+
+
+def test_error_variance_matches_monte_carlo():
+    # per-pixel MSE over R realisations has standard error ≈ var·√(2/R) (Gaussian errors)
+    model = kf.ARFieldModel([0.9, 0.8], [2, 1])
+    shape, noise_var, reps = (10, 8), 1.0, 3000
+    x = np.stack([model.sample(shape, seed=s) for s in range(reps)])
+    z = x + np.random.default_rng(1).standard_normal(x.shape)
+    for smooth in (False, True):
+        f = kf.VectorRowFilter(model, noise_var, shape[1], smooth)
+        mse = ((f.filter(z) - x) ** 2).mean(axis=0)
+        var = f.error_variance(shape[0])
+        se = var * np.sqrt(2 / reps)
+        assert np.all(np.abs(mse - var) < 5 * se)
+        if not smooth:
+            assert var[0].mean() > var[-1].mean()  # the first row knows least
+        else:  # the smoother sees the image from both sides
+            np.testing.assert_allclose(var, var[::-1, ::-1], atol=1e-12)
+
+
+def test_smoother_attains_the_wiener_bound():
+    model = kf.ARFieldModel([0.9, 0.95], [2, 3], sigma=2.0)
+    f = kf.VectorRowFilter(model, 0.3, 20, smooth=True)
+    np.testing.assert_allclose(f.error_variance(15), kf.wiener_error_map(model, 0.3, (15, 20)))
+    assert kf.wiener_bound(model, 0.3, (15, 20)) == pytest.approx(
+        ref.wiener_bound(model.rho, model.order, 2.0, 0.3, (15, 20)), rel=1e-12
+    )
+    causal = kf.VectorRowFilter(model, 0.3, 20).error_variance(15).mean()
+    assert causal > kf.wiener_bound(model, 0.3, (15, 20))
+
+
+def test_wiener_bound_limits():
+    model = kf.ARFieldModel([0.8, 0.8], [1, 1], sigma=1.0)
+    # tiny noise: the error is about the noise; huge noise: about the field variance
+    assert kf.wiener_bound(model, 1e-6, (6, 6)) == pytest.approx(1e-6, rel=1e-3)
+    assert kf.wiener_bound(model, 1e6, (6, 6)) == pytest.approx(1.0, rel=1e-3)
+
+
+def test_stack_dtypes_mean_and_pickle():
+    model = kf.ARFieldModel([0.9, 0.9], [1, 2], sigma=10.0)
+    stack = np.stack([noisy(model, (16, 12), 4.0, s)[1] + 100 for s in range(3)])
+    f = kf.VectorRowFilter(model, 4.0, 12, mean=100.0, threads=2)
+    out = f.filter(stack)
+    for k in range(3):
+        np.testing.assert_allclose(out[k], f.filter(stack[k]), atol=1e-12)
+    np.testing.assert_allclose(
+        f.filter(stack.astype(np.float32)), f.filter(stack.astype(np.float32).astype(float))
+    )
+    img8 = np.clip(stack[0], 0, 255).astype(np.uint8)
+    np.testing.assert_allclose(f.filter(img8), f.filter(img8.astype(float)))
+    again = pickle.loads(pickle.dumps(f))
+    np.testing.assert_array_equal(again.filter(stack), out)
+    assert "VectorRowFilter" in repr(again)
+
+
+@pytest.mark.parametrize(
+    "make,exc,match",
+    [
+        (lambda m: kf.VectorRowFilter(m, 0.0, 8), ValueError, "noise_var"),
+        (lambda m: kf.VectorRowFilter(m, float("nan"), 8), ValueError, "noise_var"),
+        (lambda m: kf.VectorRowFilter(m, 1.0, 0), ValueError, "width"),
+        (
+            lambda m: kf.VectorRowFilter(kf.ARFieldModel(0.5, [1, 1, 1]), 1.0, 8),
+            ValueError,
+            "2-axis",
+        ),
+        (lambda m: kf.VectorRowFilter(kf.ARFieldModel(0.5, [5, 1]), 1.0, 8), ValueError, "up to 4"),
+        (lambda m: kf.VectorRowFilter("model", 1.0, 8), TypeError, "ARFieldModel"),
+        (lambda m: _filter8(m).filter(np.ones((4, 9))), ValueError, "width 8"),
+        (lambda m: _filter8(m).filter(np.ones(8)), ValueError, "image"),
+        (
+            lambda m: _filter8(m).filter(np.full((4, 8), np.nan)),
+            ValueError,
+            "NaN",
+        ),
+        (
+            lambda m: _filter8(m).filter(np.full((4, 8), np.inf)),
+            ValueError,
+            "infinite",
+        ),
+        (lambda m: _filter8(m).filter(np.ones((4, 8), bool)), TypeError, "real"),
+        (lambda m: _filter8(m).error_variance(0), ValueError, "height"),
+        (lambda m: kf.wiener_bound(m, -1.0, (4, 4)), ValueError, "noise_var"),
+        (lambda m: kf.wiener_bound(m, 1.0, (4, 4, 4)), ValueError, "axes"),
+    ],
+)
+def test_bad_input(make, exc, match):
+    with pytest.raises(exc, match=match):
+        make(kf.ARFieldModel([0.9, 0.8], [1, 2]))
+
+
+def _filter8(m):
+    return kf.VectorRowFilter(m, 1.0, 8)
