@@ -5,10 +5,12 @@ Formulas and their sources are in SPEC.md; each public item's docstring cites it
 """
 
 from .ar_field_model import ARFieldModel
+from .denoise import denoise, estimate_noise_var, model_from_noisy
 from .field_stream import FieldStream
 from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
 from .product_field import sample_product_field
 from .sample_correlation import sample_correlation
+from .scalar_row_filter import ScalarRowFilter
 from .vector_row_filter import VectorRowFilter
 from .wiener_bound import wiener_bound, wiener_error_map
 from .yule_walker import YuleWalkerModel, yule_walker
@@ -18,10 +20,14 @@ __all__ = [
     "AxisFit",
     "FieldStream",
     "IdentifiedModel",
+    "ScalarRowFilter",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",
+    "denoise",
+    "estimate_noise_var",
     "identify",
+    "model_from_noisy",
     "sample_correlation",
     "sample_product_field",
     "wiener_bound",

@@ -10,6 +10,7 @@ use crate::field_model::FieldModel;
 use crate::lag_products::lag_products as lag_kernel;
 use crate::noise::{Noise, Real};
 use crate::product_field::product_field_into;
+use crate::scalar_row_filter::ScalarRowFilter;
 use crate::stationary_start::AxisRecursion;
 use crate::vector_row_filter::VectorRowFilter;
 use crate::whitening::whiten_axis;
@@ -397,6 +398,63 @@ impl PyVectorRowFilter {
     }
 }
 
+/// The quasi-optimal row filter (SPEC §2.3 generalised); wrapped by
+/// `kalmanfield.ScalarRowFilter`.
+#[pyclass(name = "ScalarRowFilter", module = "kalmanfield._core", frozen)]
+pub struct PyScalarRowFilter {
+    inner: ScalarRowFilter,
+}
+
+#[pymethods]
+impl PyScalarRowFilter {
+    #[new]
+    #[pyo3(signature = (model, noise_var, width, ar_order=None))]
+    fn new(
+        py: Python<'_>,
+        model: &PyFieldModel,
+        noise_var: f64,
+        width: usize,
+        ar_order: Option<usize>,
+    ) -> PyResult<Self> {
+        let inner = py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order))?;
+        Ok(Self { inner })
+    }
+
+    /// Half-bandwidth of the row systems.
+    fn bandwidth(&self) -> usize {
+        self.inner.bandwidth()
+    }
+
+    /// Filters z (height × width, or frames × height × width) into `out` (same shape).
+    #[pyo3(signature = (z, out, smooth, threads=None))]
+    fn filter_into(
+        &self,
+        py: Python<'_>,
+        z: PyReadonlyArrayDyn<'_, f64>,
+        mut out: PyReadwriteArrayDyn<'_, f64>,
+        smooth: bool,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
+        let shape = z.shape().to_vec();
+        if out.shape() != shape.as_slice() {
+            return Err(PyValueError::new_err("out must have the shape of z"));
+        }
+        let values = contiguous(&z, "z")?;
+        let target = out
+            .as_slice_mut()
+            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+        let filter = &self.inner;
+        py.detach(|| {
+            with_threads(threads, || match shape.as_slice() {
+                [h, _] => filter.filter_image(values, target, *h, smooth),
+                [f, h, _] => filter.filter_stack(values, target, *f, *h, smooth),
+                _ => Err(FieldError::Shape("z must be 2-D or 3-D".into())),
+            })
+        })??;
+        Ok(())
+    }
+}
+
 /// Mean error variance of the best linear estimator on a height × width grid (SPEC §2.4).
 #[pyfunction]
 fn wiener_bound(
@@ -427,6 +485,7 @@ fn wiener_map<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFieldModel>()?;
     m.add_class::<PyVectorRowFilter>()?;
+    m.add_class::<PyScalarRowFilter>()?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;

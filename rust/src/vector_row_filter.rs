@@ -25,7 +25,8 @@ use rayon::prelude::*;
 /// Highest row multiplicity n_y of the row filters.
 pub const MAX_ROW_ORDER: usize = 4;
 
-type Small = Matrix4<f64>;
+/// Small row-state matrices (n_y ≤ 4; unused rows and columns are zero).
+pub type Small = Matrix4<f64>;
 
 /// The optimal filter for one model, noise variance and row width.
 #[derive(Debug, Clone)]
@@ -49,9 +50,9 @@ struct Schedule {
 
 /// Per-mode covariances of one step: prediction P_e, filtered P.
 #[derive(Clone, Copy)]
-struct ModeCovariance {
-    predicted: Small,
-    filtered: Small,
+pub(crate) struct ModeCovariance {
+    pub(crate) predicted: Small,
+    pub(crate) filtered: Small,
 }
 
 impl VectorRowFilter {
@@ -99,13 +100,23 @@ impl VectorRowFilter {
         self.modes.size()
     }
 
+    /// The eigenbasis of the row covariance.
+    pub fn modes(&self) -> &AxisModes {
+        &self.modes
+    }
+
+    /// v_j = σ² λ_j: the variance of every mode.
+    pub fn mode_variances_real(&self) -> Vec<f64> {
+        self.mode_var.clone()
+    }
+
     /// Index of the state component that row t (1-based) observes.
     fn observed(&self, t: usize) -> usize {
         self.order.saturating_sub(t)
     }
 
     /// One Riccati step of mode j in units of its variance v_j (so every mode is O(1)).
-    fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
+    pub(crate) fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
         let predicted = if t == 1 {
             self.prior
         } else if t <= self.order {

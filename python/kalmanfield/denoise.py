@@ -1,0 +1,132 @@
+"""One-call denoising of images by the row Kalman filters (SPEC §2), with the model and the
+noise level estimated from the noisy image itself."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._row_filter_input import images, positive_float
+from .ar_field_model import ARFieldModel
+from .identification import MAX_IDENTIFIED_ORDER, RHO_MAX, RHO_MIN
+from .scalar_row_filter import ScalarRowFilter
+from .vector_row_filter import VectorRowFilter
+
+_LAGS = 12
+
+
+def estimate_noise_var(image: npt.ArrayLike) -> float:
+    """σ_θ² of white noise in an image (or a stack, axes (…, H, W)): Donoho's robust estimate
+    from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
+    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²))."""
+    z = np.asarray(image, dtype=np.float64)
+    if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2:
+        raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
+    h, w = z.shape[-2] // 2 * 2, z.shape[-1] // 2 * 2
+    z = z[..., :h, :w]
+    detail = (z[..., 0::2, 0::2] - z[..., 0::2, 1::2] - z[..., 1::2, 0::2] + z[..., 1::2, 1::2]) / 2
+    return float((np.median(np.abs(detail[np.isfinite(detail)])) / 0.6745) ** 2)
+
+
+def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldModel, float, float]:
+    """(model, mean, noise variance) of z = x + θ, θ white, from the image alone.
+
+    White noise only adds to lag 0 of the autocovariance, so per axis (rows, columns) the
+    model's σ² R_{n,ρ}(h) is fitted by least squares to the sample autocovariance at lags
+    h = 1..12 (pooled over all lines, Rust kernel), for every n = 1..max_order and ρ; the best
+    (n, ρ) per axis wins, σ² is the mean of the per-axis fits and the noise variance is the
+    lag-0 autocovariance minus σ². ``identify`` is the better tool for noise-free data.
+    """
+    z = images(image, np.shape(image)[-1], allow_missing=False)
+    stack = z.reshape(-1, *z.shape[-2:])
+    mean = float(stack.mean())
+    centred = np.ascontiguousarray(stack - mean)
+    if not np.any(centred):
+        raise ValueError("the image is constant: there is no model to fit")
+    fits = [_fit_axis(centred, axis, max_order) for axis in (1, 2)]
+    variance = float(np.mean([f[2] for f in fits]))
+    noise = float(np.mean(centred**2)) - variance
+    model = ARFieldModel([f[0] for f in fits], [f[1] for f in fits], sigma=np.sqrt(variance))
+    return model, mean, noise
+
+
+def _fit_axis(centred: np.ndarray, axis: int, max_order: int) -> tuple[float, int, float]:
+    lags = min(_LAGS, centred.shape[axis] - 1)
+    if lags < 2:
+        raise ValueError("the image is too small to fit a model (need ≥ 3 pixels per axis)")
+    sums, counts = _core.lag_products(centred, axis, lags)
+    cov = (sums / np.maximum(counts, 1))[1:]
+    h = np.arange(1, lags + 1, dtype=np.float64)
+    best = (np.inf, 0.0, 1, 0.0)
+    for n in range(1, min(max_order, MAX_IDENTIFIED_ORDER) + 1):
+        err, rho, scale = _best_rho(cov, h, n)
+        if err < best[0]:
+            best = (err, rho, n, scale)
+    _, rho, n, scale = best
+    if not scale > 0:
+        raise ValueError(f"no positive correlation along axis {axis - 1}: nothing to denoise")
+    return rho, n, scale
+
+
+def _misfit(cov: np.ndarray, h: np.ndarray, n: int, rho: float) -> tuple[float, float]:
+    """Least-squares misfit of σ² R_{n,ρ}(h) to cov, and the fitted σ² (≥ 0)."""
+    r = ARFieldModel(rho, n).correlation(h)
+    scale = max(float(cov @ r / (r @ r)), 0.0)
+    return float(np.sum((cov - scale * r) ** 2)), scale
+
+
+def _best_rho(cov: np.ndarray, h: np.ndarray, n: int) -> tuple[float, float, float]:
+    """Coarse grid in -ln(1-ρ), then golden-section refinement: (misfit, ρ, σ²)."""
+    grid = 1 - np.exp(-np.linspace(-np.log1p(-RHO_MIN), -np.log1p(-RHO_MAX), 60))
+    errors = [_misfit(cov, h, n, float(r))[0] for r in grid]
+    k = int(np.argmin(errors))
+    lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
+    golden = (np.sqrt(5) - 1) / 2
+    for _ in range(40):
+        a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
+        lo, hi = (lo, b) if _misfit(cov, h, n, a)[0] < _misfit(cov, h, n, b)[0] else (a, hi)
+    rho = 0.5 * (lo + hi)
+    err, scale = _misfit(cov, h, n, rho)
+    return err, rho, scale
+
+
+def denoise(
+    image: npt.ArrayLike,
+    noise_var: float | None = None,
+    model: ARFieldModel | None = None,
+    method: Literal["scalar", "vector"] = "scalar",
+    smooth: bool = True,
+    *,
+    mean: float | None = None,
+    threads: int | None = None,
+) -> np.ndarray:
+    """Denoise an image (H, W) or a stack (F, H, W) of z = x + θ (SPEC §2).
+
+    noise_var : σ_θ²; None → :func:`estimate_noise_var` (robust Haar-MAD estimate).
+    model : the field model of x; None → :func:`model_from_noisy` (noise-robust fit of the
+        autocovariance at lags ≥ 1 per axis).
+    method : "scalar" (:class:`ScalarRowFilter`, O(W) per row) or "vector"
+        (:class:`VectorRowFilter`, optimal, O(W²) per row).
+    smooth : run the backward pass over the rows (default; within ~2 % of the Wiener bound
+        for the model).
+    mean : the field mean (None: the image mean).
+    Returns float64 of the image's shape. uint8/uint16/float inputs are accepted; NaN is not.
+    """
+    if method not in ("scalar", "vector"):
+        raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")
+    z = images(image, np.shape(image)[-1], allow_missing=False)
+    nv = estimate_noise_var(z) if noise_var is None else positive_float(noise_var, "noise_var")
+    if not nv > 0:
+        raise ValueError("the estimated noise variance is 0: the image looks noise-free")
+    if model is None:
+        model, fitted_mean, _ = model_from_noisy(z)
+        mean = fitted_mean if mean is None else mean
+    mean = float(z.mean()) if mean is None else float(mean)
+    if method == "scalar":
+        filt = ScalarRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
+    else:
+        filt = VectorRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
+    return filt.filter(z)
