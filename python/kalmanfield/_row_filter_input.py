@@ -30,9 +30,10 @@ def positive_float(value: object, name: str) -> float:
     return float(value)
 
 
-def images(z: npt.ArrayLike, width: int, allow_missing: bool) -> np.ndarray:
+def images(z: npt.ArrayLike, width: int) -> np.ndarray:
     """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
-    uint8/uint16/int/float32 inputs are converted; bool and complex are refused."""
+    uint8/uint16/int/float32 inputs are converted; bool and complex are refused; NaN and
+    infinite pixels are refused (missing observations are not supported yet)."""
     arr = np.asarray(z)
     if arr.dtype == np.bool_ or np.issubdtype(arr.dtype, np.complexfloating):
         raise TypeError(f"images must hold real numbers, got dtype {arr.dtype}")
@@ -46,11 +47,9 @@ def images(z: npt.ArrayLike, width: int, allow_missing: bool) -> np.ndarray:
         raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
     if arr.shape[-2] == 0:
         raise ValueError("the images have no rows")
-    if np.isinf(arr).any():
-        raise ValueError("the images hold infinite pixels")
-    if not allow_missing and np.isnan(arr).any():
+    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():  # the sum is the fast path
         raise ValueError(
-            "the images hold NaN pixels: the vector filter needs every pixel "
-            "(ScalarRowFilter treats NaN as a missing observation)"
+            "the images hold NaN or infinite pixels: the row filters need every pixel "
+            "(fill or inpaint missing pixels first)"
         )
     return arr

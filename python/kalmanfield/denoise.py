@@ -40,7 +40,7 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     (n, ρ) per axis wins, σ² is the mean of the per-axis fits and the noise variance is the
     lag-0 autocovariance minus σ². ``identify`` is the better tool for noise-free data.
     """
-    z = images(image, np.shape(image)[-1], allow_missing=False)
+    z = images(image, np.shape(image)[-1])
     stack = z.reshape(-1, *z.shape[-2:])
     mean = float(stack.mean())
     centred = np.ascontiguousarray(stack - mean)
@@ -117,7 +117,7 @@ def denoise(
     """
     if method not in ("scalar", "vector"):
         raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")
-    z = images(image, np.shape(image)[-1], allow_missing=False)
+    z = images(image, np.shape(image)[-1])
     nv = estimate_noise_var(z) if noise_var is None else positive_float(noise_var, "noise_var")
     if not nv > 0:
         raise ValueError("the estimated noise variance is 0: the image looks noise-free")

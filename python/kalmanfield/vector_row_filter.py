@@ -73,10 +73,14 @@ class VectorRowFilter:
     def filter(self, z: npt.ArrayLike) -> np.ndarray:
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
         released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
-        arr = images(z, self._width, allow_missing=False) - self._mean
+        arr = images(z, self._width)
+        if self._mean:
+            arr = arr - self._mean
         out = np.empty_like(arr)
         self._core.filter_into(arr, out, self._smooth, self._threads)
-        return out + self._mean
+        if self._mean:
+            out += self._mean
+        return out
 
     def error_variance(self, height: int) -> np.ndarray:
         """(height, W) map of the per-pixel error variance (diag P) of this filter — of the

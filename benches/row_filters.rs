@@ -1,0 +1,67 @@
+//! Criterion benchmarks of the row filters (SPEC §2): the quasi-optimal filter on 2048²,
+//! the optimal one on 512², one thread, plans built outside the timing.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kalmanfield::cascade::sample_into;
+use kalmanfield::scalar_row_filter::ScalarRowFilter;
+use kalmanfield::vector_row_filter::VectorRowFilter;
+use kalmanfield::{FieldModel, Noise};
+
+fn one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+fn image(model: &FieldModel, side: usize) -> Vec<f64> {
+    let mut z = vec![0.0; side * side];
+    sample_into(model, &mut z, &[side, side], Noise::Seeded(3)).unwrap();
+    z
+}
+
+fn bench_scalar(c: &mut Criterion) {
+    let side = 2048;
+    let mut group = c.benchmark_group("scalar_row_filter_2048");
+    group.throughput(Throughput::Elements((side * side) as u64));
+    group.sample_size(10);
+    for order in [1usize, 2] {
+        let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
+        let z = image(&model, side);
+        let mut out = vec![0.0; z.len()];
+        let filter = ScalarRowFilter::new(&model, 1.0, side, None).unwrap();
+        filter.filter_image(&z, &mut out, side, false).unwrap(); // builds the plan
+        for smooth in [false, true] {
+            let id = format!("({order},{order}) smooth={smooth}");
+            group.bench_with_input(BenchmarkId::from_parameter(id), &smooth, |b, &s| {
+                b.iter(|| one_thread(|| filter.filter_image(&z, &mut out, side, s).unwrap()))
+            });
+        }
+    }
+    group.finish();
+}
+
+fn bench_vector(c: &mut Criterion) {
+    let side = 512;
+    let model = FieldModel::new(&[0.9, 0.9], &[2, 2], 1.0).unwrap();
+    let z = image(&model, side);
+    let mut out = vec![0.0; z.len()];
+    let filter = VectorRowFilter::new(&model, 1.0, side).unwrap();
+    let mut group = c.benchmark_group("vector_row_filter_512");
+    group.throughput(Throughput::Elements((side * side) as u64));
+    group.sample_size(10);
+    group.bench_function("(2,2) causal", |b| {
+        b.iter(|| {
+            one_thread(|| {
+                filter
+                    .filter_image(&z, &mut out, side, false, false)
+                    .unwrap()
+            })
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_scalar, bench_vector);
+criterion_main!(benches);
