@@ -666,7 +666,9 @@ class BranchingTracker:
         c.hits = c.hits + hit
         c.miss = np.where(hit, 0, c.miss + 1)
         c.t_last = np.where(hit, t, c.t_last)
-        c.pos_last = np.where(hit[:, None], Z[np.maximum(meas - gid0, 0)][:, :s], c.pos_last)
+        if len(Z):  # an empty frame has no hit
+            last = Z[np.maximum(meas - gid0, 0)][:, :s]
+            c.pos_last = np.where(hit[:, None], last, c.pos_last)
         c.llr_last = np.where(hit, c.llr, c.llr_last)
         c.node_last = np.where(hit, -1, c.node_last)  # filled in by _commit
         shifted = np.concatenate([c.recent[:, 1:], meas[:, None]], axis=1)
