@@ -248,7 +248,7 @@ impl ScalarRowFilter {
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
         let (w, n) = (self.width(), self.order);
-        let var = self.optimal.mode_variances_real();
+        let var = self.optimal.mode_variances();
         let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
         let mut plan = Plan {
             rows: 0,
@@ -269,7 +269,7 @@ impl ScalarRowFilter {
                 .collect();
             if t <= n {
                 if t == 1 {
-                    let band = self.band(&self.whitened(&current, &var));
+                    let band = self.band(&self.whitened(&current, var));
                     plan.precisions.push(self.precision(&band)?);
                 }
                 let observed: Vec<usize> = (1..=t).map(|i| n - i).collect();
@@ -278,7 +278,7 @@ impl ScalarRowFilter {
                 plan.row_precision.push(0);
                 plan.row_factor.push(plan.factors.len() - 1);
             } else {
-                let band = self.band(&self.whitened(&current, &var));
+                let band = self.band(&self.whitened(&current, var));
                 let settled = previous_band.as_ref().is_some_and(|old| {
                     let scale = max_abs_difference(&band[0], None);
                     old.iter()

@@ -106,8 +106,8 @@ impl VectorRowFilter {
     }
 
     /// v_j = σ² λ_j: the variance of every mode.
-    pub fn mode_variances_real(&self) -> Vec<f64> {
-        self.mode_var.clone()
+    pub fn mode_variances(&self) -> &[f64] {
+        &self.mode_var
     }
 
     /// Index of the state component that row t (1-based) observes.
@@ -372,7 +372,7 @@ impl VectorRowFilter {
             .par_chunks_mut(height)
             .enumerate()
             .for_each(|(j, column)| {
-                self.mode_variances(j, smooth, column);
+                self.mode_error_variances(j, smooth, column);
             });
         matmul(
             MatMut::from_row_major_slice_mut(out, height, w),
@@ -385,7 +385,7 @@ impl VectorRowFilter {
         Ok(())
     }
 
-    fn mode_variances(&self, j: usize, smooth: bool, column: &mut [f64]) {
+    fn mode_error_variances(&self, j: usize, smooth: bool, column: &mut [f64]) {
         let ratio = self.noise_var / self.mode_var[j];
         let height = column.len();
         let mut history: Vec<ModeCovariance> = Vec::with_capacity(height);
