@@ -23,6 +23,7 @@ impl AxisModes {
         let eigen = toeplitz.self_adjoint_eigen(Side::Lower).map_err(|e| {
             FieldError::InvalidParameter(format!("eigendecomposition failed: {e:?}"))
         })?;
+        crate::vector_state::clear_upper_state();
         let raw = eigen.S().column_vector();
         let largest = (0..size).map(|j| raw[j]).fold(0.0f64, f64::max);
         let values = (0..size).map(|j| raw[j].max(1e-15 * largest)).collect();

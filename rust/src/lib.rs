@@ -19,6 +19,7 @@ pub mod product_field;
 pub mod scalar_row_filter;
 pub mod stationary_start;
 pub mod vector_row_filter;
+pub mod vector_state;
 pub mod whitening;
 pub mod wiener_bound;
 

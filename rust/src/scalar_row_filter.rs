@@ -148,6 +148,7 @@ impl ScalarRowFilter {
                 let pairs = Mat::from_fn(w - d, w, |l, j| u[(l, j)] * u[(l + d, j)]);
                 let mut out = Mat::<f64>::zeros(w - d, n * n);
                 matmul(&mut out, Accum::Replace, &pairs, &flat, 1.0, Par::Seq);
+                crate::vector_state::clear_upper_state();
                 out
             })
             .collect()
@@ -372,6 +373,7 @@ impl ScalarRowFilter {
     }
 
     fn run(&self, plan: &Plan, z: &[f64], out: &mut [f64], height: usize, smooth: bool) {
+        crate::vector_state::clear_upper_state();
         let (w, n) = (self.width(), self.order);
         let size = w * n;
         let mut state = vec![0.0; size];
