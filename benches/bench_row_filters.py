@@ -5,8 +5,9 @@
    ρ_y = ρ_x ∈ {0.5, 0.8, 0.9, 0.95}, σ_x²/σ_θ² ∈ {0.1, 1, 10} (σ_x = 1):
    - optimal causal: ``VectorRowFilter.error_variance(H).mean()`` (SPEC §2.1–2.2);
    - scalar causal / smoothed: ``ScalarRowFilter`` (SPEC §2.3 generalised), exact MSE from
-     ``reference.row_filters.linear_estimator_mse`` (the filter run on the 2·H·W basis images
-     of the signal and noise covariances);
+     the filter run on the H·W orthonormal eigen-images of Cov(x) (white noise shares that
+     basis); cross-checked in every run against ``reference.row_filters.linear_estimator_mse``
+     (the filter run on 2·H·W basis images);
    - loss % = scalar causal / optimal causal − 1 (target ≤ 3 %);
    - gap % = scalar smoothed / ``wiener_bound`` − 1 (target ≤ 5 %);
    - for (1,1): SPEC §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
@@ -15,7 +16,9 @@
    (4,4), causal and smoothed; the NumPy reference ``scalar_row_filter`` against the Rust one
    on 256²; ``VectorRowFilter`` construction (eigendecomposition) and filter at width 1024;
    optimal / quasi-optimal time ratio against the width; a stack of 8 frames of 512² on one
-   thread and on all cores.
+   thread, on an explicit pool of all cores and on the default global pool (threads=None);
+   one image with threads=1 against the default threads=None. Every table runs in a fresh
+   process (the Rust filter's speed depends on the CPU state of the thread running it).
 3. Real images (scikit-image, if installed): camera, astronaut (green), coins, moon in [0, 1]
    plus Gaussian noise σ = 0.1 (seed 0); PSNR and wall time (one call) of ``kf.denoise`` and
    common denoisers (BM3D if the ``bm3d`` package is installed).
@@ -48,6 +51,7 @@ RHOS = (0.5, 0.8, 0.9, 0.95)
 RATIOS = (0.1, 1.0, 10.0)
 LOSS_TARGET, GAP_TARGET = 3.0, 5.0
 SPEED_RHO = 0.9
+EXACT_CHUNK = 512
 NOISE_SIGMA = 0.1
 OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_row_filters.md"
 
@@ -138,29 +142,59 @@ def model_of(order: tuple[int, int], rho: float) -> kf.ARFieldModel:
 # 1. loss table
 
 
+def eigen_images(order: tuple[int, int], rho: float, size: int):
+    """(U_y, U_x, λ): Cov(x) = Σ_ab λ_ab v_ab v_abᵀ with orthonormal eigen-images
+    v_ab = U_y[:, a] ⊗ U_x[:, b] and λ_ab = λ_y,a λ_x,b (σ_x = 1), λ flattened over (a, b)."""
+    ly, uy = np.linalg.eigh(ref.axis_covariance(rho, order[0], size))
+    lx, ux = np.linalg.eigh(ref.axis_covariance(rho, order[1], size))
+    return uy, ux, np.outer(np.clip(ly, 0, None), np.clip(lx, 0, None)).ravel()
+
+
 def exact_mse(filters: list, order: tuple[int, int], rho: float, noise_var: float, size: int):
-    """Exact mean MSE of each (linear, zero-mean) Rust row filter on a size² grid."""
+    """Exact mean MSE of each (linear, zero-mean) filter E on a size² grid:
+    MSE = Σ_ab [λ_ab ‖E v_ab − v_ab‖² + σ_θ² ‖E v_ab‖²] / size², because Cov(x) = Σ λ v vᵀ and
+    the white noise covariance σ_θ² I = σ_θ² Σ v vᵀ share the eigen-images v_ab. Same value as
+    ``linear_estimator_mse`` (checked in every run) with H·W filtered images instead of 2·H·W."""
+    uy, ux, lam = eigen_images(order, rho, size)
+    total = np.zeros(len(filters))
+    for lo in range(0, size * size, EXACT_CHUNK):
+        a, b = np.divmod(np.arange(lo, min(lo + EXACT_CHUNK, size * size)), size)
+        v = uy.T[a][:, :, None] * ux.T[b][:, None, :]  # (B, H, W)
+        weight = lam[lo : lo + len(a), None, None]
+        for i, filt in enumerate(filters):
+            ev = filt.filter(v)
+            total[i] += np.sum(weight * (ev - v) ** 2) + noise_var * np.sum(ev**2)
+    return list(total / size**2)
+
+
+def reference_check(size: int) -> str:
+    """exact_mse against ``linear_estimator_mse`` (the estimator run on 2·H·W basis images) for
+    the (2,2), ρ = 0.9, σ_x²/σ_θ² = 1 scalar filter, causal and smoothed."""
+    model, order = model_of((2, 2), 0.9), (2, 2)
+    filters = [kf.ScalarRowFilter(model, 1.0, size, smooth=s) for s in (False, True)]
 
     def estimator(zb: np.ndarray) -> tuple[np.ndarray, ...]:
         stack = np.ascontiguousarray(np.moveaxis(zb, 2, 0))
         return tuple(np.moveaxis(f.filter(stack), 0, 2) for f in filters)
 
-    maps = ref.linear_estimator_mse(
-        estimator, [rho, rho], list(order), 1.0, noise_var, (size, size)
+    maps = ref.linear_estimator_mse(estimator, [0.9, 0.9], list(order), 1.0, 1.0, (size, size))
+    ours = exact_mse(filters, order, 0.9, 1.0, size)
+    diff = max(abs(m.mean() / o - 1) for m, o in zip(maps, ours))
+    return (
+        f"Cross-check: for (2,2), ρ = 0.9, σ_x²/σ_θ² = 1 the eigen-image MSEs and "
+        f"`linear_estimator_mse` agree to a relative {diff:.1e} (causal and smoothed)."
     )
-    return [float(m.mean()) for m in maps]
 
 
 def loss_case(order: tuple[int, int], rho: float, ratio: float, size: int) -> dict:
     """Every MSE of one case of the loss table."""
     model, noise_var = model_of(order, rho), 1.0 / ratio
-    cores = os.cpu_count()  # an explicit pool: the plans are built off the calling thread
     filters = [
-        kf.ScalarRowFilter(model, noise_var, size, threads=cores),
-        kf.ScalarRowFilter(model, noise_var, size, smooth=True, threads=cores),
+        kf.ScalarRowFilter(model, noise_var, size),
+        kf.ScalarRowFilter(model, noise_var, size, smooth=True),
     ]
     if order == (1, 1):
-        filters.append(kf.ScalarRowFilter(model, noise_var, size, ar_order=1, threads=cores))
+        filters.append(kf.ScalarRowFilter(model, noise_var, size, ar_order=1))
     mses = exact_mse(filters, order, rho, noise_var, size)
     optimal = float(kf.VectorRowFilter(model, noise_var, size).error_variance(size).mean())
     bound = kf.wiener_bound(model, noise_var, (size, size))
@@ -220,6 +254,7 @@ def loss_section(cfg: Config) -> str:
     start, size = time.perf_counter(), cfg.loss_size
     cases = [(o, r, q) for o in cfg.orders for r in cfg.rhos for q in RATIOS]
     results = [loss_case(*case, size) for case in cases]
+    check = reference_check(size)
     elapsed = time.perf_counter() - start
     header = (
         "| (n_y,n_x) | ρ | σ_x²/σ_θ² | optimal causal | scalar causal | loss % | Wiener bound "
@@ -235,10 +270,12 @@ def loss_section(cfg: Config) -> str:
             "",
             *loss_summary(results),
             "",
-            "Exact MSEs: optimal = `VectorRowFilter.error_variance(H).mean()`; scalar = "
-            "`ScalarRowFilter` (default m = n_x + 1) through `linear_estimator_mse` (2·H·W basis "
-            "images, no sampling); bound = `wiener_bound`. Literal = `ar_order=1`. "
-            f"{len(results)} cases in {elapsed:.0f} s (filters on all {os.cpu_count()} cores).",
+            "Exact MSEs, no sampling: optimal = `VectorRowFilter.error_variance(H).mean()`; "
+            "scalar = `ScalarRowFilter` (default m = n_x + 1) run on the H·W eigen-images v_ab "
+            "of Cov(x), MSE = Σ [λ_ab ‖E v_ab − v_ab‖² + σ_θ² ‖E v_ab‖²] / (H·W) (the white "
+            "noise shares that orthonormal basis); bound = `wiener_bound`. Literal = "
+            f"`ar_order=1`. {len(results)} cases in {elapsed:.0f} s (default threads).",
+            check,
         ]
     )
 
@@ -333,25 +370,33 @@ def vector_speed(cfg: Config) -> list[str]:
     ]
 
 
+def sweep_row(order: tuple[int, int], width: int, repeats: int) -> str:
+    """One row of the width sweep: warm causal filter times, the scalar filter first."""
+    model, z = model_of(order, SPEED_RHO), noisy_field(order, (width, width))
+    sca = timed_filter(kf.ScalarRowFilter(model, 1.0, width, threads=1), z, repeats)[1]
+    vec = timed_filter(kf.VectorRowFilter(model, 1.0, width, threads=1), z, repeats)[1]
+    return f"| {order} | {width} | {1e3 * vec:.1f} | {1e3 * sca:.2f} | {vec / sca:.1f} |"
+
+
 def sweep_speed(cfg: Config) -> list[str]:
-    """Optimal (vector) / quasi-optimal (scalar) filter time against the width, causal."""
-    lines = [
+    """Optimal (vector) / quasi-optimal (scalar) filter time against the width, causal; every
+    row in a fresh process."""
+    rows = [
+        isolated(sweep_row, order, width, cfg.repeats)
+        for order in ((1, 1), (2, 2))
+        for width in cfg.sweep_widths
+    ]
+    return [
         "#### Optimal vs quasi-optimal, causal, H = W, 1 thread (construction / plan excluded)",
         "",
         "| model | W | VectorRowFilter (ms) | ScalarRowFilter (ms) | vector / scalar |",
         "|---|---:|---:|---:|---:|",
+        *rows,
+        "",
+        "At small widths the filters' constructors can leave the calling thread in the slow "
+        "state of the last table as well (seen in scratch at W = 48; pool threads created "
+        "later inherit it), which can inflate the scalar (2,2) times at W = 128.",
     ]
-    for order in ((1, 1), (2, 2)):
-        model = model_of(order, SPEED_RHO)
-        for width in cfg.sweep_widths:
-            z = noisy_field(order, (width, width))
-            vec = timed_filter(kf.VectorRowFilter(model, 1.0, width, threads=1), z, cfg.repeats)
-            sca = timed_filter(kf.ScalarRowFilter(model, 1.0, width, threads=1), z, cfg.repeats)
-            lines.append(
-                f"| {order} | {width} | {1e3 * vec[1]:.1f} | {1e3 * sca[1]:.2f} | "
-                f"{vec[1] / sca[1]:.1f} |"
-            )
-    return lines
 
 
 def stack_speed(cfg: Config) -> list[str]:
@@ -370,17 +415,16 @@ def stack_speed(cfg: Config) -> list[str]:
         "| threads | ms | Mpixel/s | speed-up vs 1 thread |",
         "|---|---:|---:|---:|",
         *[
-            f"| {label} | {1e3 * t:.0f} | {8 * size * size / t / 1e6:.1f} | "
-            f"{rows[0][1] / t:.2f} |"
+            f"| {label} | {1e3 * t:.0f} | {8 * size * size / t / 1e6:.1f} | {rows[0][1] / t:.2f} |"
             for label, t in rows
         ],
     ]
 
 
 def calling_thread_speed(cfg: Config) -> list[str]:
-    """ScalarRowFilter (2,2) causal, speed_size²: threads=1 in a clean process, then the default
+    """ScalarRowFilter (2,2) causal, ≤ 1024²: threads=1 in a fresh process, then the default
     threads=None (plan built and run on the calling thread), then threads=1 again."""
-    size, model = cfg.speed_size, model_of((2, 2), SPEED_RHO)
+    size, model = min(cfg.speed_size, 1024), model_of((2, 2), SPEED_RHO)
     z = noisy_field((2, 2), (size, size))
     rows = []
     for threads, label in (
@@ -405,10 +449,11 @@ def calling_thread_speed(cfg: Config) -> list[str]:
         "agree. Diagnosed in scratch (not part of this script): outputs are bit-identical, and "
         "executing one `vzeroupper` instruction on the slow thread restores full speed: the "
         "plan build leaves the thread's upper AVX register state dirty (presumably faer's "
-        "AVX-512 kernels), which makes the filter's non-VEX SSE2 loops several times slower "
-        "(Sapphire Rapids here). Threads created later inherit that state (third row). With "
-        "threads=k the plan is built on a throw-away pool thread, so the calling thread stays "
-        "clean. `kf.denoise` builds a new plan every call and pays this in every call.",
+        "AVX-512 kernels), which makes the filter's non-VEX SSE loops several times slower "
+        "(Sapphire Rapids here). Seen for n_y = 2, 3 (×3.4–5.3 at 512² for (2,1), (2,2), "
+        "(3,3)), not for n_y = 1 nor (4,4). With threads=k the plan is built on a throw-away "
+        "pool thread and the calling thread stays clean; pool threads created from a dirty "
+        "thread can inherit the state (third row).",
     ]
 
 
@@ -421,12 +466,12 @@ def isolated(fn: Callable, *args: object) -> object:
 
 
 def speed_section(cfg: Config) -> str:
-    """Section 2: every speed table, each measured in a fresh process."""
+    """Section 2: every speed table, measured in fresh processes."""
     parts = [
         isolated(scalar_speed, cfg),
         isolated(reference_speed, cfg.repeats),
         isolated(vector_speed, cfg),
-        isolated(sweep_speed, cfg),
+        sweep_speed(cfg),
         isolated(stack_speed, cfg),
         isolated(calling_thread_speed, cfg),
     ]
@@ -435,7 +480,9 @@ def speed_section(cfg: Config) -> str:
         "",
         "Every filter is warmed up by one call on the same image size (the per-height plan — "
         "for the scalar filter the row-by-row model fit — is built then and cached); "
-        "“first call” includes it. Each table runs in a fresh process.",
+        "“first call” includes it. The Rust scalar filter's speed depends on the CPU state "
+        "of the thread that runs it (see the last table), so each table — each row of the "
+        "width sweep — runs in a fresh process.",
     ]
     return "\n\n".join(["\n".join(head)] + ["\n".join(p) for p in parts])
 
@@ -518,18 +565,27 @@ def run_method(fn: Callable, z: np.ndarray, clean: np.ndarray) -> tuple[str, str
     return f"{psnr:.2f}", f"{1e3 * secs:.0f}"
 
 
-def measure(name: str, keys: tuple[str, ...]) -> tuple[tuple[int, ...], dict]:
-    """(image shape, key → (PSNR, ms) cells) of the methods `keys` on one noisy test image.
-    Optional packages are imported first, so that no timing includes an import."""
+def preload() -> None:
+    """Import the optional packages, so that no timing includes an import."""
     for module in ("pywt", "bm3d"):
         try:
             importlib.import_module(module)
         except ImportError:
             pass
-    clean = test_image(name)
-    z = clean + NOISE_SIGMA * np.random.default_rng(0).standard_normal(clean.shape)
-    methods = denoisers()
-    return clean.shape, {key: run_method(methods[key][1], z, clean) for key in keys}
+
+
+def measure(keys: tuple[str, ...], names: tuple[str, ...]) -> tuple[list, dict]:
+    """(image shapes, (key, name) → (PSNR, ms) cells) of the methods `keys` on the noisy test
+    images `names`."""
+    preload()
+    methods, shapes, cells = denoisers(), [], {}
+    for name in names:
+        clean = test_image(name)
+        z = clean + NOISE_SIGMA * np.random.default_rng(0).standard_normal(clean.shape)
+        shapes.append(clean.shape)
+        for key in keys:
+            cells[key, name] = run_method(methods[key][1], z, clean)
+    return shapes, cells
 
 
 def image_table(title: str, names: list[str], rows: list[tuple[str, list[str]]]) -> list[str]:
@@ -543,18 +599,14 @@ def image_table(title: str, names: list[str], rows: list[tuple[str, list[str]]])
     ]
 
 
-def measure_all(cfg: Config, keys: list[str]) -> tuple[list[str], dict[str, list]]:
-    """Column names and key → cells over the images. Fresh processes: one per image for the
-    other methods, one per image and kalmanfield call (see the threads=None table)."""
-    names, cells = [], {key: [] for key in keys}
+def measure_all(cfg: Config, keys: list[str]) -> tuple[list[str], dict]:
+    """Column names and (key, name) → cells. Fresh processes: one for the other methods, one
+    per kalmanfield call (see the threads=None table)."""
     others = tuple(key for key in keys if key not in KF_KEYS)
-    for name in cfg.images:
-        shape, found = isolated(measure, name, others)
-        for key in KF_KEYS:
-            found.update(isolated(measure, name, (key,))[1])
-        names.append(f"{name} {shape[0]}×{shape[1]}")
-        for key in keys:
-            cells[key].append(found[key])
+    shapes, cells = isolated(measure, others, cfg.images)
+    for key in KF_KEYS:
+        cells.update(isolated(measure, (key,), cfg.images)[1])
+    names = [f"{name} {h}×{w}" for name, (h, w) in zip(cfg.images, shapes)]
     return names, cells
 
 
@@ -568,16 +620,16 @@ def images_section(cfg: Config) -> str:
     notes = [
         "",
         "PSNR = 10 log10(1 / MSE) against the clean image, outputs not clipped; one call each "
-        "(wall time, default threads) in a fresh process. `kf.denoise` estimates σ_θ² (Haar MAD) "
-        "and the model from the noisy image unless told.",
+        "(wall time, default threads); each `kf.denoise` variant runs in its own fresh process. "
+        "`kf.denoise` estimates σ_θ² (Haar MAD) and the model from the noisy image unless told.",
         "† With a δ PSF `skimage.restoration.wiener` deconvolves nothing: it is a global "
         "Laplacian-regularised (Tikhonov) smoother, x̂ = F⁻¹[Z / (1 + balance·|Λ|²)], with a "
         "hand-set balance of 0.1 — neither σ nor a signal model enters.",
     ]
     if not cfg.bm3d:
         notes.append("BM3D skipped in --quick (about 15 s per 512² image).")
-    psnr_rows = [(methods[k][0], [c[0] for c in cells[k]]) for k in keys]
-    time_rows = [(methods[k][0], [c[1] for c in cells[k]]) for k in keys if k != "noisy"]
+    psnr_rows = [(methods[k][0], [cells[k, n][0] for n in cfg.images]) for k in keys]
+    time_rows = [(methods[k][0], [cells[k, n][1] for n in cfg.images]) for k in keys[1:]]
     title = f"### 3. Real images + Gaussian noise σ = {NOISE_SIGMA} (seed 0): PSNR (dB)"
     return "\n".join(
         image_table(title, names, psnr_rows)
