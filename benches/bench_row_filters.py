@@ -70,6 +70,7 @@ class Config:
     stack_size: int
     images: tuple[str, ...]
     bm3d: bool
+    processes: int
 
 
 def make_config(quick: bool) -> Config:
@@ -86,6 +87,7 @@ def make_config(quick: bool) -> Config:
             stack_size=256,
             images=("camera", "coins"),
             bm3d=False,
+            processes=2,
         )
     return Config(
         loss_size=48,
@@ -98,6 +100,7 @@ def make_config(quick: bool) -> Config:
         stack_size=512,
         images=("camera", "astronaut", "coins", "moon"),
         bm3d=True,
+        processes=3,
     )
 
 
@@ -393,9 +396,9 @@ def sweep_speed(cfg: Config) -> list[str]:
         "|---|---:|---:|---:|---:|",
         *rows,
         "",
-        "At small widths the filters' constructors can leave the calling thread in the slow "
-        "state of the last table as well (seen in scratch at W = 48; pool threads created "
-        "later inherit it), which can inflate the scalar (2,2) times at W = 128.",
+        "During the slow episode described under the last table, the filters' constructors at "
+        "small widths (W = 48) also left the calling thread slow; the scalar (2,2) time at "
+        "W = 128 was then 3–5 ms instead of ~1 ms.",
     ]
 
 
@@ -421,39 +424,41 @@ def stack_speed(cfg: Config) -> list[str]:
     ]
 
 
-def calling_thread_speed(cfg: Config) -> list[str]:
-    """ScalarRowFilter (2,2) causal, ≤ 1024²: threads=1 in a fresh process, then the default
-    threads=None (plan built and run on the calling thread), then threads=1 again."""
-    size, model = min(cfg.speed_size, 1024), model_of((2, 2), SPEED_RHO)
-    z = noisy_field((2, 2), (size, size))
-    rows = []
-    for threads, label in (
-        (1, "threads=1, fresh process"),
-        (None, "threads=None (default): plan built and run on the calling thread"),
-        (1, "threads=1 again, same process, after the threads=None call"),
-    ):
+def calling_thread_pair(size: int, repeats: int) -> tuple[float, float]:
+    """(threads=1, threads=None) best warm times of ScalarRowFilter (2,2) causal on one size²
+    image, threads=1 first (its plan is built on a throw-away pool thread)."""
+    model, z = model_of((2, 2), SPEED_RHO), noisy_field((2, 2), (size, size))
+    times = []
+    for threads in (1, None):
         filt = kf.ScalarRowFilter(model, 1.0, size, threads=threads)
-        first, best = timed_filter(filt, z, cfg.repeats)
-        rows.append(
-            f"| {label} | {1e3 * first:.0f} | {1e3 * best:.1f} | {size * size / best / 1e6:.1f} |"
-        )
+        times.append(timed_filter(filt, z, repeats)[1])
+    return times[0], times[1]
+
+
+def calling_thread_speed(cfg: Config) -> list[str]:
+    """threads=1 against the default threads=None on one image, in several fresh processes."""
+    size = min(cfg.speed_size, 1024)
+    pairs = [isolated(calling_thread_pair, size, cfg.repeats) for _ in range(cfg.processes)]
     return [
-        f"#### Default threads=None vs threads=1, ScalarRowFilter (2,2) causal, {size}², "
-        "one image (sequential either way)",
+        f"#### Default threads=None vs threads=1, ScalarRowFilter (2,2) causal, {size}², one "
+        "image (filtered sequentially either way)",
         "",
-        "| call | first call incl. plan (ms) | best (ms) | Mpixel/s |",
+        "| fresh process | threads=1 (ms) | threads=None (ms) | None / 1 |",
         "|---|---:|---:|---:|",
-        *rows,
+        *[
+            f"| {i + 1} | {1e3 * one:.1f} | {1e3 * default:.1f} | {default / one:.2f} |"
+            for i, (one, default) in enumerate(pairs)
+        ],
         "",
-        "A single image is filtered sequentially whatever `threads` says, so these rows should "
-        "agree. Diagnosed in scratch (not part of this script): outputs are bit-identical, and "
-        "executing one `vzeroupper` instruction on the slow thread restores full speed: the "
-        "plan build leaves the thread's upper AVX register state dirty (presumably faer's "
-        "AVX-512 kernels), which makes the filter's non-VEX SSE loops several times slower "
-        "(Sapphire Rapids here). Seen for n_y = 2, 3 (×3.4–5.3 at 512² for (2,1), (2,2), "
-        "(3,3)), not for n_y = 1 nor (4,4). With threads=k the plan is built on a throw-away "
-        "pool thread and the calling thread stays clean; pool threads created from a dirty "
-        "thread can inherit the state (third row).",
+        "The two should agree. While this script was being written (same machine, same day) "
+        "threads=None was 4–6× slower than threads=1 for n_y = 2 and 3 in every process for "
+        "about half an hour (e.g. 926 vs 182 ms at 2048², and the 8-frame stack above 5.5× "
+        "slower), then the effect vanished. Outputs were bit-identical, and one `vzeroupper` "
+        "instruction executed on the slow thread (a scratch ctypes helper) restored full "
+        "speed: a dirty upper AVX register state, left by the plan build (presumably faer's "
+        "AVX-512 kernels) on the thread that then runs the filter's non-VEX SSE loops. With "
+        "threads=k the plan is built on a throw-away pool thread; pool threads created from "
+        "a dirty thread inherit the state. Environment-dependent; rerun if the ratio is ≫ 1.",
     ]
 
 
