@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._row_filter_input import images, positive_float
+from ._row_filter import images, positive_float
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, RHO_MAX, RHO_MIN
 from .scalar_row_filter import ScalarRowFilter

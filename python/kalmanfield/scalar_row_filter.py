@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
-import numpy.typing as npt
-
 from . import _core
-from ._row_filter_input import images, positive_float, row_model
+from ._row_filter import RowFilter
 from ._validation import positive_int
 from .ar_field_model import ARFieldModel
 
 
-class ScalarRowFilter:
+class ScalarRowFilter(RowFilter):
     """Quasi-optimal Kalman filter of z = x + θ row by row (SPEC §2.3), for every
     multiplicity (n_y, n_x) ≤ 4, within ~2 % of :class:`VectorRowFilter` (see the README's
     loss table).
@@ -34,8 +31,7 @@ class ScalarRowFilter:
     The per-row models are built on the first call for a given image height and cached.
     """
 
-    __slots__ = ("_model", "_noise_var", "_width", "_ar_order", "_smooth", "_mean", "_threads")
-    __slots__ += ("_core",)
+    __slots__ = ("_ar_order",)
 
     def __init__(
         self,
@@ -48,53 +44,16 @@ class ScalarRowFilter:
         mean: float = 0.0,
         threads: int | None = None,
     ) -> None:
-        self._model = row_model(model)
-        self._noise_var = positive_float(noise_var, "noise_var")
-        self._width = positive_int(width, "width")
+        self._set_parameters(model, noise_var, width, smooth, mean, threads)
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
-        self._smooth = bool(smooth)
-        self._mean = float(mean)
-        self._threads = None if threads is None else positive_int(threads, "threads")
         self._core = _core.ScalarRowFilter(
             model._core, self._noise_var, self._width, self._ar_order
         )
 
     @property
-    def model(self) -> ARFieldModel:
-        """The field model."""
-        return self._model
-
-    @property
-    def noise_var(self) -> float:
-        """σ_θ²."""
-        return self._noise_var
-
-    @property
-    def width(self) -> int:
-        """Row length W."""
-        return self._width
-
-    @property
     def ar_order(self) -> int:
         """Order m of the block AR model along the row."""
         return self._ar_order if self._ar_order is not None else self._model.order[1] + 1
-
-    @property
-    def smooth(self) -> bool:
-        """Whether the RTS pass over the rows runs."""
-        return self._smooth
-
-    def filter(self, z: npt.ArrayLike) -> np.ndarray:
-        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
-        arr = images(z, self._width)
-        if self._mean:
-            arr = arr - self._mean
-        out = np.empty_like(arr)
-        self._core.filter_into(arr, out, self._smooth, self._threads)
-        if self._mean:
-            out += self._mean
-        return out
 
     def __repr__(self) -> str:
         return (

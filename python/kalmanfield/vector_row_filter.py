@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-import numpy.typing as npt
 
 from . import _core
-from ._row_filter_input import images, positive_float, row_model
+from ._row_filter import RowFilter
 from ._validation import positive_int
 from .ar_field_model import ARFieldModel
 
 
-class VectorRowFilter:
+class VectorRowFilter(RowFilter):
     """Optimal Kalman filter of z = x + θ row by row: the state is the last n_y rows
     (SPEC §2.2 [P 3.18–3.32]), x a field of `model` (axis 0 = rows), θ white with variance
     `noise_var`.
@@ -30,7 +29,7 @@ class VectorRowFilter:
     mean : the field's mean (subtracted before filtering, added back).
     """
 
-    __slots__ = ("_model", "_noise_var", "_width", "_smooth", "_mean", "_threads", "_core")
+    __slots__ = ()
 
     def __init__(
         self,
@@ -42,45 +41,8 @@ class VectorRowFilter:
         mean: float = 0.0,
         threads: int | None = None,
     ) -> None:
-        self._model = row_model(model)
-        self._noise_var = positive_float(noise_var, "noise_var")
-        self._width = positive_int(width, "width")
-        self._smooth = bool(smooth)
-        self._mean = float(mean)
-        self._threads = None if threads is None else positive_int(threads, "threads")
+        self._set_parameters(model, noise_var, width, smooth, mean, threads)
         self._core = _core.VectorRowFilter(model._core, self._noise_var, self._width)
-
-    @property
-    def model(self) -> ARFieldModel:
-        """The field model."""
-        return self._model
-
-    @property
-    def noise_var(self) -> float:
-        """σ_θ²."""
-        return self._noise_var
-
-    @property
-    def width(self) -> int:
-        """Row length W."""
-        return self._width
-
-    @property
-    def smooth(self) -> bool:
-        """Whether the RTS pass over the rows runs."""
-        return self._smooth
-
-    def filter(self, z: npt.ArrayLike) -> np.ndarray:
-        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
-        arr = images(z, self._width)
-        if self._mean:
-            arr = arr - self._mean
-        out = np.empty_like(arr)
-        self._core.filter_into(arr, out, self._smooth, self._threads)
-        if self._mean:
-            out += self._mean
-        return out
 
     def error_variance(self, height: int) -> np.ndarray:
         """(height, W) map of the per-pixel error variance (diag P) of this filter — of the

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from ._row_filter_input import positive_float, row_model
+from ._row_filter import positive_float, row_model
 from ._validation import ShapeLike, grid_shape
 from .ar_field_model import ARFieldModel
 

@@ -341,6 +341,34 @@ fn chi2_quantile(p: f64, dof: f64) -> PyResult<f64> {
     Ok(chi_squared_quantile(p, dof)?)
 }
 
+/// Runs a row filter on an image (height × width) or a stack (frames × height × width) into
+/// `out` (same shape), GIL released.
+fn filter_array(
+    py: Python<'_>,
+    z: PyReadonlyArrayDyn<'_, f64>,
+    mut out: PyReadwriteArrayDyn<'_, f64>,
+    threads: Option<usize>,
+    image: impl Fn(&[f64], &mut [f64], usize) -> crate::Result<()> + Send + Sync,
+    stack: impl Fn(&[f64], &mut [f64], usize, usize) -> crate::Result<()> + Send + Sync,
+) -> PyResult<()> {
+    let shape = z.shape().to_vec();
+    if out.shape() != shape.as_slice() {
+        return Err(PyValueError::new_err("out must have the shape of z"));
+    }
+    let values = contiguous(&z, "z")?;
+    let target = out
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+    py.detach(|| {
+        with_threads(threads, || match shape.as_slice() {
+            [h, _] => image(values, target, *h),
+            [f, h, _] => stack(values, target, *f, *h),
+            _ => Err(FieldError::Shape("z must be 2-D or 3-D".into())),
+        })
+    })??;
+    Ok(())
+}
+
 /// The optimal vector row filter (SPEC §2.1–2.2); wrapped by `kalmanfield.VectorRowFilter`.
 #[pyclass(name = "VectorRowFilter", module = "kalmanfield._core", frozen)]
 pub struct PyVectorRowFilter {
@@ -361,27 +389,19 @@ impl PyVectorRowFilter {
         &self,
         py: Python<'_>,
         z: PyReadonlyArrayDyn<'_, f64>,
-        mut out: PyReadwriteArrayDyn<'_, f64>,
+        out: PyReadwriteArrayDyn<'_, f64>,
         smooth: bool,
         threads: Option<usize>,
     ) -> PyResult<()> {
-        let shape = z.shape().to_vec();
-        if out.shape() != shape.as_slice() {
-            return Err(PyValueError::new_err("out must have the shape of z"));
-        }
-        let values = contiguous(&z, "z")?;
-        let target = out
-            .as_slice_mut()
-            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
         let filter = &self.inner;
-        py.detach(|| {
-            with_threads(threads, || match shape.as_slice() {
-                [h, _] => filter.filter_image(values, target, *h, smooth, true),
-                [f, h, _] => filter.filter_stack(values, target, *f, *h, smooth),
-                _ => Err(FieldError::Shape("z must be 2-D or 3-D".into())),
-            })
-        })??;
-        Ok(())
+        filter_array(
+            py,
+            z,
+            out,
+            threads,
+            |z, out, h| filter.filter_image(z, out, h, smooth, true),
+            |z, out, f, h| filter.filter_stack(z, out, f, h, smooth),
+        )
     }
 
     /// Per-pixel error variance map (height × width) of the filter or of the smoother.
@@ -431,27 +451,19 @@ impl PyScalarRowFilter {
         &self,
         py: Python<'_>,
         z: PyReadonlyArrayDyn<'_, f64>,
-        mut out: PyReadwriteArrayDyn<'_, f64>,
+        out: PyReadwriteArrayDyn<'_, f64>,
         smooth: bool,
         threads: Option<usize>,
     ) -> PyResult<()> {
-        let shape = z.shape().to_vec();
-        if out.shape() != shape.as_slice() {
-            return Err(PyValueError::new_err("out must have the shape of z"));
-        }
-        let values = contiguous(&z, "z")?;
-        let target = out
-            .as_slice_mut()
-            .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
         let filter = &self.inner;
-        py.detach(|| {
-            with_threads(threads, || match shape.as_slice() {
-                [h, _] => filter.filter_image(values, target, *h, smooth),
-                [f, h, _] => filter.filter_stack(values, target, *f, *h, smooth),
-                _ => Err(FieldError::Shape("z must be 2-D or 3-D".into())),
-            })
-        })??;
-        Ok(())
+        filter_array(
+            py,
+            z,
+            out,
+            threads,
+            |z, out, h| filter.filter_image(z, out, h, smooth),
+            |z, out, f, h| filter.filter_stack(z, out, f, h, smooth),
+        )
     }
 }
 

@@ -19,7 +19,7 @@
 use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
-use crate::vector_row_filter::{Small, VectorRowFilter, MAX_ROW_ORDER};
+use crate::vector_row_filter::{check_images, Small, VectorRowFilter, MAX_ROW_ORDER};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use nalgebra::DMatrix;
@@ -457,19 +457,4 @@ fn singular_model() -> FieldError {
     FieldError::InvalidParameter(
         "the row model's covariance is singular (ill-conditioned model)".into(),
     )
-}
-
-fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
-    if z.len() != expected || out.len() != expected {
-        return Err(FieldError::Shape(format!(
-            "the images hold {} values, expected {expected}",
-            z.len()
-        )));
-    }
-    if z.iter().any(|v| !v.is_finite()) {
-        return Err(FieldError::NonFinite(
-            "the images hold NaN or infinite pixels".into(),
-        ));
-    }
-    Ok(())
 }

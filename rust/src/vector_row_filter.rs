@@ -220,19 +220,7 @@ impl VectorRowFilter {
         smooth: bool,
         par: bool,
     ) -> Result<()> {
-        let w = self.width();
-        if z.len() != height * w || out.len() != z.len() {
-            return Err(FieldError::Shape(format!(
-                "the image must be {height}×{w}, got {} values",
-                z.len()
-            )));
-        }
-        if z.iter().any(|v| !v.is_finite()) {
-            return Err(FieldError::NonFinite(
-                "the image holds NaN or infinite pixels (the vector filter needs every pixel)"
-                    .into(),
-            ));
-        }
+        check_images(z, out, height * self.width())?;
         if height == 0 {
             return Ok(());
         }
@@ -251,19 +239,7 @@ impl VectorRowFilter {
         smooth: bool,
     ) -> Result<()> {
         let size = height * self.width();
-        if z.len() != frames * size || out.len() != z.len() {
-            return Err(FieldError::Shape(format!(
-                "the stack must be {frames}×{height}×{}, got {} values",
-                self.width(),
-                z.len()
-            )));
-        }
-        if z.iter().any(|v| !v.is_finite()) {
-            return Err(FieldError::NonFinite(
-                "the images hold NaN or infinite pixels (the vector filter needs every pixel)"
-                    .into(),
-            ));
-        }
+        check_images(z, out, frames * size)?;
         if size == 0 {
             return Ok(());
         }
@@ -421,6 +397,23 @@ fn max_change(old: &[[f64; MAX_ROW_ORDER]], new: &[[f64; MAX_ROW_ORDER]]) -> f64
         .zip(new)
         .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
         .fold(0.0, f64::max)
+}
+
+/// Input and output hold `expected` values and every pixel is finite (the row filters need
+/// every observation).
+pub(crate) fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
+    if z.len() != expected || out.len() != expected {
+        return Err(FieldError::Shape(format!(
+            "the images hold {} values, expected {expected}",
+            z.len()
+        )));
+    }
+    if z.iter().any(|v| !v.is_finite()) {
+        return Err(FieldError::NonFinite(
+            "the images hold NaN or infinite pixels (the row filters need every pixel)".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// The (row, column) axes of a 2-axis model with n_y ≤ 4.

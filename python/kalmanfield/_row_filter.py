@@ -1,4 +1,4 @@
-"""Argument checks shared by the row filters (SPEC §2)."""
+"""What the row filters (SPEC §2) share: argument checks and the common Python front."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import numbers
 import numpy as np
 import numpy.typing as npt
 
+from ._validation import positive_int
 from .ar_field_model import ARFieldModel
 
 
@@ -53,3 +54,50 @@ def images(z: npt.ArrayLike, width: int) -> np.ndarray:
             "(fill or inpaint missing pixels first)"
         )
     return arr
+
+
+class RowFilter:
+    """Common front of :class:`VectorRowFilter` and :class:`ScalarRowFilter`: the checked
+    parameters, their properties and :meth:`filter`. Subclasses set ``_core``."""
+
+    __slots__ = ("_model", "_noise_var", "_width", "_smooth", "_mean", "_threads", "_core")
+
+    def _set_parameters(self, model, noise_var, width, smooth, mean, threads) -> None:
+        self._model = row_model(model)
+        self._noise_var = positive_float(noise_var, "noise_var")
+        self._width = positive_int(width, "width")
+        self._smooth = bool(smooth)
+        self._mean = float(mean)
+        self._threads = None if threads is None else positive_int(threads, "threads")
+
+    @property
+    def model(self) -> ARFieldModel:
+        """The field model."""
+        return self._model
+
+    @property
+    def noise_var(self) -> float:
+        """σ_θ²."""
+        return self._noise_var
+
+    @property
+    def width(self) -> int:
+        """Row length W."""
+        return self._width
+
+    @property
+    def smooth(self) -> bool:
+        """Whether the RTS pass over the rows runs."""
+        return self._smooth
+
+    def filter(self, z: npt.ArrayLike) -> np.ndarray:
+        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
+        released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
+        arr = images(z, self._width)
+        if self._mean:
+            arr = arr - self._mean
+        out = np.empty_like(arr)
+        self._core.filter_into(arr, out, self._smooth, self._threads)
+        if self._mean:
+            out += self._mean
+        return out
