@@ -5,12 +5,15 @@ Formulas and their sources are in SPEC.md; each public item's docstring cites it
 """
 
 from .ar_field_model import ARFieldModel
+from .branching_tracker import BranchingTracker
 from .denoise import denoise, estimate_noise_var, model_from_noisy
 from .field_stream import FieldStream
 from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
+from .link import link
 from .product_field import sample_product_field
 from .sample_correlation import sample_correlation
 from .scalar_row_filter import ScalarRowFilter
+from .segmentation import segment
 from .vector_row_filter import VectorRowFilter
 from .wiener_bound import wiener_bound, wiener_error_map
 from .yule_walker import YuleWalkerModel, yule_walker
@@ -18,6 +21,7 @@ from .yule_walker import YuleWalkerModel, yule_walker
 __all__ = [
     "ARFieldModel",
     "AxisFit",
+    "BranchingTracker",
     "FieldStream",
     "IdentifiedModel",
     "ScalarRowFilter",
@@ -27,9 +31,11 @@ __all__ = [
     "denoise",
     "estimate_noise_var",
     "identify",
+    "link",
     "model_from_noisy",
     "sample_correlation",
     "sample_product_field",
+    "segment",
     "wiener_bound",
     "wiener_error_map",
     "yule_walker",

@@ -45,6 +45,15 @@ def lag_products(
 def whiten_axis_into(data: npt.NDArray[np.float64], axis: int, rho: float, order: int) -> None: ...
 def chi2_sf(x: float, dof: float) -> float: ...
 def chi2_quantile(p: float, dof: float) -> float: ...
+def segment(
+    frame: npt.NDArray[np.uint8]
+    | npt.NDArray[np.uint16]
+    | npt.NDArray[np.float32]
+    | npt.NDArray[np.float64],
+    threshold: float,
+    min_area: int,
+    connectivity: int,
+) -> tuple[dict[str, np.ndarray], npt.NDArray[np.int32]]: ...
 
 class VectorRowFilter:
     def __init__(self, model: FieldModel, noise_var: float, width: int) -> None: ...
@@ -74,3 +83,50 @@ def wiener_bound(model: FieldModel, noise_var: float, height: int, width: int) -
 def wiener_map(
     model: FieldModel, noise_var: float, height: int, width: int
 ) -> npt.NDArray[np.float64]: ...
+
+MAX_MOTION_ORDER: int
+
+class BranchingTracker:
+    def __init__(
+        self,
+        order: list[int],
+        process_std: list[float],
+        measurement_std: list[float],
+        n_spatial: int,
+        confidence: float,
+        memory: int,
+        max_misses: int,
+        dt: float,
+        p_detect: float,
+        clutter_density: float | None,
+        max_speed: float,
+        n_confirm: int,
+        confirm_llr: float,
+        confirm_window: int,
+        max_per_tree: int,
+        max_hypotheses: int,
+        max_seeds: int,
+        merge_depth: int,
+        maneuver_std: list[float] | None,
+        maneuver_prob: float,
+        min_hits: int,
+        final_llr: float,
+        max_shared: int,
+        selection: str,
+        seed: int,
+    ) -> None: ...
+    def update(self, measurements: npt.NDArray[np.float64], time: float | None = None) -> None: ...
+    def tracks(self) -> dict[str, np.ndarray]: ...
+    def online(self) -> dict[str, np.ndarray]: ...
+    def stats(self) -> npt.NDArray[np.int64]: ...
+    def frame_offsets(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def frame(self) -> int: ...
+    @property
+    def time(self) -> float | None: ...
+    @property
+    def n_hypotheses(self) -> int: ...
+    @property
+    def n_nodes(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    def load_state(self, state: bytes) -> None: ...

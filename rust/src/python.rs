@@ -22,6 +22,9 @@ use numpy::{
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
+mod branching;
+mod segment;
+
 impl From<FieldError> for PyErr {
     fn from(e: FieldError) -> PyErr {
         PyValueError::new_err(e.to_string())
@@ -498,6 +501,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFieldModel>()?;
     m.add_class::<PyVectorRowFilter>()?;
     m.add_class::<PyScalarRowFilter>()?;
+    branching::register(m)?;
+    segment::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;

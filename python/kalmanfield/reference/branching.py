@@ -48,8 +48,9 @@ measurements of its gate; at extreme clutter the cap and ``max_seeds`` decide wh
 (confirmed sequences first), so the cost per frame stays bounded and the quality degrades.
 
 Sequences start (SPEC §3.3 step 3) from every measurement of the frame that no *confirmed*
-sequence uses (at most ``max_seeds`` per frame: a deterministic random subset when there are
-more). A sequence is confirmed once it has ``n_confirm`` measurements and score ≥ ``confirm_llr``.
+sequence uses (at most ``max_seeds`` per frame: when there are more, those with the smallest
+splitmix64 hash of seed ^ global id, a deterministic random subset). A sequence is confirmed
+once it has ``n_confirm`` measurements and score ≥ ``confirm_llr``.
 
 Score: log-likelihood ratio against clutter
 -------------------------------------------
@@ -174,6 +175,16 @@ def motion_matrices(order: int, tau: float, process_std: float) -> tuple[np.ndar
             F[i, j] = tau ** (j - i) / math.factorial(j - i)
     g = np.array([tau ** (d - i) / math.factorial(d - i) for i in range(d)])
     return F, process_std**2 * np.outer(g, g)
+
+
+def splitmix64(x: np.ndarray) -> np.ndarray:
+    """The splitmix64 finaliser of uint64 values (wrapping arithmetic): the portable hash that
+    picks the deterministic subset of new sequences when there are more than ``max_seeds``."""
+    with np.errstate(over="ignore"):
+        z = np.asarray(x, dtype=np.uint64) + np.uint64(0x9E3779B97F4A7C15)
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return z ^ (z >> np.uint64(31))
 
 
 def _ball_volume(r: np.ndarray, dim: int) -> np.ndarray:
@@ -444,7 +455,7 @@ class BranchingTracker:
             if k == 3 and self.s == 2:
                 names = ["x", "y", "p2"]
         self.names = list(names)
-        self._rng = np.random.default_rng(seed)
+        self.seed = int(seed)
         # prior variance of the derivatives of a start (diffuse: the start is least squares)
         self._p0 = [
             np.diag([self.R[q]] + [(10.0 * self.vmax) ** 2] * self.order[q]) for q in range(k)
@@ -548,7 +559,8 @@ class BranchingTracker:
         used[u] = True
         new = np.flatnonzero(~used)
         if len(new) > self.max_seeds:
-            new = np.sort(self._rng.choice(new, self.max_seeds, replace=False))
+            key = splitmix64(np.uint64(self.seed) ^ (gid0 + new).astype(np.uint64))
+            new = np.sort(new[np.lexsort((new, key))[: self.max_seeds]])
         h = self._seed(h, Z, new, t, gid0)
         self.h = h
         self._online_answer(h, t, gid0)

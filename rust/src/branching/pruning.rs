@@ -1,0 +1,257 @@
+//! The five pruning rules of the branching tracker (module docstring of the reference):
+//! tentative time-out, merging inside a tree, the per-tree cap with protected sequences,
+//! cross-tree duplicates, the global cap. Every rule maps a list of child rows (ascending) to
+//! the surviving ones; the children are copied once, at the end.
+
+use super::hypotheses::{Hypotheses, Widths};
+use super::tracker::{splitmix64, BranchingTracker};
+use std::cmp::Ordering;
+
+/// Applies rules 1–5 to the children of one frame.
+pub fn prune(tr: &mut BranchingTracker, c: Hypotheses) -> Hypotheses {
+    let w = tr.w;
+    let idx = time_out(tr, &c);
+    let idx = merge_within_trees(&c, w, idx);
+    let idx = cap_per_tree(&c, w, tr.cfg.max_per_tree, idx);
+    let idx = cross_tree_duplicates(tr, &c, idx);
+    let idx = global_cap(tr, &c, idx);
+    if idx.len() == c.len() {
+        c
+    } else {
+        c.take(&idx, w)
+    }
+}
+
+/// Decreasing score, then earlier row first.
+fn by_score(c: &Hypotheses, a: usize, b: usize) -> Ordering {
+    c.llr[b].total_cmp(&c.llr[a]).then(a.cmp(&b))
+}
+
+/// A 64-bit hash of a row of ids (groups equal rows before the exact comparison).
+fn hash_ids(ids: impl Iterator<Item = i64>) -> u64 {
+    ids.fold(0x243F_6A88_85A3_08D3, |h, v| splitmix64(h ^ v as u64))
+}
+
+/// Rule 1: a sequence not confirmed `confirm_window` frames after its start dies.
+fn time_out(tr: &BranchingTracker, c: &Hypotheses) -> Vec<usize> {
+    let window = tr.cfg.confirm_window as i64;
+    (0..c.len())
+        .filter(|&i| c.conf[i] || tr.frame - c.start[i] < window)
+        .collect()
+}
+
+/// Rule 2: same tree, same last D measurements, same miss run → only the best survives.
+fn merge_within_trees(c: &Hypotheses, w: Widths, idx: Vec<usize>) -> Vec<usize> {
+    let key = |i: usize| (c.tree[i], c.recent_row(i, w), c.miss[i]);
+    let hash: Vec<u64> = idx
+        .iter()
+        .map(|&i| {
+            let (tree, recent, miss) = key(i);
+            hash_ids([tree, miss].into_iter().chain(recent.iter().copied()))
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..idx.len()).collect();
+    order.sort_unstable_by(|&a, &b| {
+        hash[a]
+            .cmp(&hash[b])
+            .then_with(|| key(idx[a]).cmp(&key(idx[b])))
+            .then_with(|| by_score(c, idx[a], idx[b]))
+    });
+    let mut keep: Vec<usize> = order
+        .iter()
+        .enumerate()
+        .filter(|&(pos, &a)| pos == 0 || key(idx[order[pos - 1]]) != key(idx[a]))
+        .map(|(_, &a)| idx[a])
+        .collect();
+    keep.sort_unstable();
+    keep
+}
+
+/// Rule 3: at most K per tree, plus each tree's best and best exclusive sequence.
+fn cap_per_tree(c: &Hypotheses, w: Widths, max_per_tree: usize, idx: Vec<usize>) -> Vec<usize> {
+    if idx.is_empty() {
+        return idx;
+    }
+    let protect = protected(c, w, &idx);
+    let mut order: Vec<usize> = (0..idx.len()).collect();
+    order.sort_unstable_by(|&a, &b| {
+        c.tree[idx[a]]
+            .cmp(&c.tree[idx[b]])
+            .then(protect[b].cmp(&protect[a]))
+            .then_with(|| by_score(c, idx[a], idx[b]))
+    });
+    let mut keep = Vec::with_capacity(order.len());
+    let mut rank = 0;
+    for (pos, &a) in order.iter().enumerate() {
+        let same_tree = pos > 0 && c.tree[idx[order[pos - 1]]] == c.tree[idx[a]];
+        rank = if same_tree { rank + 1 } else { 0 };
+        if rank < max_per_tree {
+            keep.push(idx[a]);
+        }
+    }
+    keep.sort_unstable();
+    keep
+}
+
+/// A dense map over a small range of non-negative ids.
+struct DenseMap {
+    lo: i64,
+    values: Vec<i64>,
+}
+
+impl DenseMap {
+    fn new(ids: impl Iterator<Item = i64> + Clone, empty: i64) -> Self {
+        let lo = ids.clone().min().unwrap_or(0);
+        let hi = ids.max().unwrap_or(-1);
+        DenseMap {
+            lo,
+            values: vec![empty; (hi - lo + 1).max(0) as usize],
+        }
+    }
+    fn slot(&mut self, id: i64) -> &mut i64 {
+        &mut self.values[(id - self.lo) as usize]
+    }
+    fn get(&self, id: i64) -> Option<i64> {
+        let k = id - self.lo;
+        (k >= 0 && (k as usize) < self.values.len()).then(|| self.values[k as usize])
+    }
+}
+
+/// Per tree (dense over the trees of `rows`): the best row, −1 for none (ties: earliest row).
+fn best_per_tree(c: &Hypotheses, trees: &DenseMap, rows: impl Iterator<Item = usize>) -> Vec<i64> {
+    let mut best = vec![-1i64; trees.values.len()];
+    for i in rows {
+        let b = &mut best[(c.tree[i] - trees.lo) as usize];
+        if *b < 0 || c.llr[i] > c.llr[*b as usize] {
+            *b = i as i64;
+        }
+    }
+    best
+}
+
+const FREE: i64 = -3;
+const CONTESTED: i64 = -1;
+
+/// Sequences (positions in `idx`) kept whatever their rank: per tree its best one and its best
+/// *exclusive* one (sharing none of its last D measurements with the best of another tree).
+fn protected(c: &Hypotheses, w: Widths, idx: &[usize]) -> Vec<bool> {
+    let trees = DenseMap::new(idx.iter().map(|&i| c.tree[i]), 0);
+    let best = best_per_tree(c, &trees, idx.iter().copied());
+    let bests: Vec<usize> = best
+        .iter()
+        .filter(|&&b| b >= 0)
+        .map(|&b| b as usize)
+        .collect();
+    let claimed = bests
+        .iter()
+        .flat_map(|&i| c.recent_row(i, w).iter().copied().filter(|&g| g >= 0));
+    let mut owner = DenseMap::new(claimed, FREE);
+    for &i in &bests {
+        for &g in c.recent_row(i, w).iter().filter(|&&g| g >= 0) {
+            let slot = owner.slot(g);
+            *slot = if *slot == FREE { c.tree[i] } else { CONTESTED };
+        }
+    }
+    let exclusive = idx.iter().copied().filter(|&i| {
+        c.recent_row(i, w).iter().all(|&g| match owner.get(g) {
+            None | Some(FREE) => true,
+            Some(t) => t == c.tree[i],
+        })
+    });
+    let best_exclusive = best_per_tree(c, &trees, exclusive);
+    let mut is_protected = vec![false; c.len()];
+    for &b in best.iter().chain(&best_exclusive).filter(|&&b| b >= 0) {
+        is_protected[b as usize] = true;
+    }
+    idx.iter().map(|&i| is_protected[i]).collect()
+}
+
+/// Rule 4: of two trees' sequences with the same last D entries, the younger one dies when it
+/// has at most ν_max+1 measurements the older one lacks.
+fn cross_tree_duplicates(tr: &BranchingTracker, c: &Hypotheses, idx: Vec<usize>) -> Vec<usize> {
+    let w = tr.w;
+    let mut group: Vec<usize> = idx
+        .iter()
+        .copied()
+        .filter(|&i| c.recent_row(i, w).iter().filter(|&&g| g >= 0).count() >= 2)
+        .collect();
+    if group.len() < 2 {
+        return idx;
+    }
+    let hash: Vec<u64> = (0..c.len())
+        .map(|i| hash_ids(c.recent_row(i, w).iter().copied()))
+        .collect();
+    group.sort_unstable_by(|&a, &b| {
+        hash[a]
+            .cmp(&hash[b])
+            .then_with(|| c.recent_row(a, w).cmp(c.recent_row(b, w)))
+            .then(c.start[a].cmp(&c.start[b]))
+            .then_with(|| by_score(c, a, b))
+    });
+    let mut dead = vec![false; c.len()];
+    let mut lo = 0;
+    while lo < group.len() {
+        let mut hi = lo + 1;
+        while hi < group.len() && c.recent_row(group[hi], w) == c.recent_row(group[lo], w) {
+            hi += 1;
+        }
+        let members = &group[lo..hi];
+        if members.iter().any(|&i| c.tree[i] != c.tree[members[0]]) {
+            let mut kept: Vec<usize> = Vec::new();
+            for &y in members {
+                let killed = kept
+                    .iter()
+                    .any(|&o| c.tree[o] != c.tree[y] && dominated(tr, c, y, o));
+                if killed {
+                    dead[y] = true;
+                } else {
+                    kept.push(y);
+                }
+            }
+        }
+        lo = hi;
+    }
+    idx.into_iter().filter(|&i| !dead[i]).collect()
+}
+
+/// True when sequence y has at most ν_max+1 measurements that sequence o lacks (both chains
+/// hold one node per frame: compared frame by frame back to the start of y).
+fn dominated(tr: &BranchingTracker, c: &Hypotheses, y: usize, o: usize) -> bool {
+    let limit = tr.cfg.nu_max() as i64 + 1;
+    let nodes = &tr.nodes;
+    let mut extra = i64::from(c.cur[y] >= 0 && c.cur[y] != c.cur[o]);
+    let (mut ny, mut no) = (c.node[y], c.node[o]);
+    while extra <= limit && ny >= 0 && nodes.frame[ny as usize] >= c.start[y] {
+        let my = nodes.meas[ny as usize];
+        if my >= 0 && (no < 0 || nodes.meas[no as usize] != my) {
+            extra += 1;
+        }
+        ny = nodes.parent[ny as usize];
+        no = if no >= 0 {
+            nodes.parent[no as usize]
+        } else {
+            -1
+        };
+    }
+    extra <= limit
+}
+
+/// Rule 5: at most `max_hypotheses` (confirmed first, then by score); a confirmed sequence cut
+/// by the cap offers its parent node as its tree's candidate, like an ended one.
+fn global_cap(tr: &mut BranchingTracker, c: &Hypotheses, mut idx: Vec<usize>) -> Vec<usize> {
+    let cap = tr.cfg.max_hypotheses;
+    if idx.len() <= cap {
+        return idx;
+    }
+    idx.sort_unstable_by(|&a, &b| c.conf[b].cmp(&c.conf[a]).then_with(|| by_score(c, a, b)));
+    for &i in &idx[cap..] {
+        if c.conf[i] {
+            let parent = c.node[i];
+            let llr = tr.nodes.llr[parent as usize];
+            tr.offer_candidate(c.tree[i], parent, llr);
+        }
+    }
+    idx.truncate(cap);
+    idx.sort_unstable();
+    idx
+}

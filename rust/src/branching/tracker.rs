@@ -1,0 +1,682 @@
+//! The branching tracker: per frame, predict, gate and branch every live sequence, prune,
+//! start new sequences (SPEC §3.1–3.3).
+
+use super::config::TrackerConfig;
+use super::hypotheses::{Hypotheses, Widths, MISS, NONE};
+use super::motion::{motion_matrices, predict, update};
+use super::nodes::{remapped, Nodes};
+use super::pruning::prune;
+use crate::error::{FieldError, Result};
+use statrs::function::gamma::gamma;
+use std::f64::consts::PI;
+
+/// Per-frame counters (for benchmarks and the clutter-robustness report).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameStats {
+    pub measurements: usize,
+    pub live_before: usize,
+    pub children: usize,
+    pub live: usize,
+    pub seeds: usize,
+}
+
+/// The per-frame online answer (greedy over the live confirmed sequences).
+#[derive(Debug, Clone, Default)]
+pub struct OnlineAnswer {
+    pub frame: Vec<i64>,
+    pub tree: Vec<i64>,
+    /// k values per row: the filtered parameters.
+    pub position: Vec<f64>,
+    pub coasted: Vec<bool>,
+    pub llr: Vec<f64>,
+}
+
+/// The tracker's whole state (everything the pickled form holds besides the configuration).
+#[derive(Debug, Clone)]
+pub struct BranchingTracker {
+    pub cfg: TrackerConfig,
+    pub(crate) dims: Vec<usize>,
+    pub(crate) state_off: Vec<usize>,
+    pub(crate) cov_off: Vec<usize>,
+    pub(crate) w: Widths,
+    pub(crate) alpha: Vec<f64>,
+    pub(crate) p0: Vec<f64>,
+    pub nodes: Nodes,
+    pub h: Hypotheses,
+    pub frame: i64,
+    pub t: Option<f64>,
+    pub n_meas: i64,
+    /// Global id of the first measurement of every frame so far.
+    pub frame_offsets: Vec<i64>,
+    pub(crate) lo: Vec<f64>,
+    pub(crate) hi: Vec<f64>,
+    pub(crate) count: i64,
+    pub(crate) tree_conf: Vec<bool>,
+    pub(crate) tree_cand: Vec<i64>,
+    pub(crate) tree_cand_llr: Vec<f64>,
+    pub(crate) tree_alive: Vec<bool>,
+    /// (leaf node, score) of ended track trees' best confirmed sequences.
+    pub finished: Vec<(i64, f64)>,
+    pub online: OnlineAnswer,
+    pub(crate) compact_at: usize,
+    pub stats: Vec<FrameStats>,
+}
+
+/// Predicted moments of every live sequence, per parameter, for one frame.
+struct Prediction {
+    x: Vec<f64>,
+    p: Vec<f64>,
+    s: Vec<f64>,
+    /// With the manoeuvre (velocity-jump) branch: its P and S.
+    p_man: Vec<f64>,
+    s_man: Vec<f64>,
+}
+
+/// One frame's measurements and clock.
+struct FrameInput<'a> {
+    z: &'a [f64],
+    t: f64,
+    gid0: i64,
+}
+
+impl BranchingTracker {
+    /// A tracker with no frame yet.
+    pub fn new(cfg: TrackerConfig) -> Result<Self> {
+        cfg.validate()?;
+        let dims = cfg.dims();
+        let k = cfg.k();
+        let mut state_off = vec![0];
+        let mut cov_off = vec![0];
+        for &d in &dims {
+            state_off.push(state_off.last().unwrap() + d);
+            cov_off.push(cov_off.last().unwrap() + d * d);
+        }
+        let w = Widths {
+            state: state_off[k],
+            cov: cov_off[k],
+            memory: cfg.memory,
+            spatial: cfg.n_spatial,
+            depth: cfg.merge_depth,
+        };
+        // prior of a start: the measurement, diffuse derivatives (the start is least squares)
+        let mut p0 = vec![0.0; w.cov];
+        for (q, &d) in dims.iter().enumerate() {
+            let block = &mut p0[cov_off[q]..cov_off[q + 1]];
+            block[0] = cfg.measurement_std[q] * cfg.measurement_std[q];
+            for i in 1..d {
+                block[i * d + i] = (10.0 * cfg.max_speed).powi(2);
+            }
+        }
+        Ok(BranchingTracker {
+            alpha: cfg.thresholds()?,
+            nodes: Nodes::new(w.state),
+            h: Hypotheses::default(),
+            frame: 0,
+            t: None,
+            n_meas: 0,
+            frame_offsets: Vec::new(),
+            lo: vec![f64::INFINITY; k],
+            hi: vec![f64::NEG_INFINITY; k],
+            count: 0,
+            tree_conf: Vec::new(),
+            tree_cand: Vec::new(),
+            tree_cand_llr: Vec::new(),
+            tree_alive: Vec::new(),
+            finished: Vec::new(),
+            online: OnlineAnswer::default(),
+            compact_at: 200_000,
+            stats: Vec::new(),
+            dims,
+            state_off,
+            cov_off,
+            w,
+            p0,
+            cfg,
+        })
+    }
+
+    /// Number of parameters k.
+    pub fn k(&self) -> usize {
+        self.cfg.k()
+    }
+
+    /// Processes one frame: `z` holds m measurement vectors of k parameters (row-major);
+    /// `time` defaults to the previous time + dt (0 for the first frame).
+    pub fn update(&mut self, z: &[f64], time: Option<f64>) -> Result<()> {
+        let k = self.k();
+        if z.len() % k != 0 {
+            return Err(FieldError::Shape(format!(
+                "measurements must have {k} columns, got {} values",
+                z.len()
+            )));
+        }
+        if z.iter().any(|v| !v.is_finite()) {
+            return Err(FieldError::NonFinite(
+                "measurements must be finite (no NaN or inf)".into(),
+            ));
+        }
+        let t = match (time, self.t) {
+            (Some(t), _) => t,
+            (None, Some(prev)) => prev + self.cfg.dt,
+            (None, None) => 0.0,
+        };
+        if !t.is_finite() {
+            return Err(FieldError::NonFinite(format!(
+                "time must be finite, got {t}"
+            )));
+        }
+        if let Some(prev) = self.t {
+            if t <= prev {
+                return Err(FieldError::InvalidParameter(format!(
+                    "time must increase: got {t} after {prev}"
+                )));
+            }
+        }
+        let tau = self.t.map_or(0.0, |prev| t - prev);
+        let m = z.len() / k;
+        let gid0 = self.n_meas;
+        self.frame_offsets.push(gid0);
+        for row in z.chunks_exact(k) {
+            for q in 0..k {
+                self.lo[q] = self.lo[q].min(row[q]);
+                self.hi[q] = self.hi[q].max(row[q]);
+            }
+        }
+        self.count += m as i64;
+        let input = FrameInput { z, t, gid0 };
+        let mut stats = FrameStats {
+            measurements: m,
+            live_before: self.h.len(),
+            ..Default::default()
+        };
+        let h = std::mem::take(&mut self.h);
+        let mut h = if h.is_empty() {
+            h
+        } else {
+            let (children, ended) = self.branch(&h, &input, tau);
+            stats.children = children.len();
+            self.terminate(&h, &ended);
+            let children = prune(self, children);
+            self.commit(children)
+        };
+        self.close_dead_trees(&h);
+        let new = self.seed_candidates(&h, m, gid0);
+        stats.seeds = new.len();
+        self.seed(&mut h, &input, &new);
+        self.h = h;
+        self.online_answer();
+        stats.live = self.h.len();
+        self.stats.push(stats);
+        self.n_meas += m as i64;
+        self.t = Some(t);
+        self.frame += 1;
+        if self.nodes.len() > self.compact_at {
+            self.compact();
+        }
+        Ok(())
+    }
+
+    /// (λ, λ_s): clutter density in parameter space and in the spatial sub-space.
+    fn density(&self) -> (f64, f64) {
+        let s = self.cfg.n_spatial;
+        let k = self.k();
+        if let Some(lam) = self.cfg.clutter_density {
+            let extra: f64 = (s..k)
+                .map(|q| (self.hi[q] - self.lo[q]).max(1e-9))
+                .product();
+            return (lam, lam * extra);
+        }
+        let span: Vec<f64> = (0..k).map(|q| (self.hi[q] - self.lo[q]).max(1.0)).collect();
+        let rate = (self.count as f64 / (self.frame + 1).max(1) as f64).max(1.0);
+        let all: f64 = span.iter().product();
+        let spatial: f64 = span[..s].iter().product();
+        (rate / all, rate / spatial)
+    }
+
+    fn predict_all(&self, h: &Hypotheses, tau: f64, t: f64) -> Prediction {
+        let (k, w, n) = (self.k(), self.w, h.len());
+        let maneuver = self.cfg.maneuver_std.as_ref();
+        let mut pr = Prediction {
+            x: vec![0.0; n * w.state],
+            p: vec![0.0; n * w.cov],
+            s: vec![0.0; n * k],
+            p_man: vec![0.0; if maneuver.is_some() { n * w.cov } else { 0 }],
+            s_man: vec![0.0; if maneuver.is_some() { n * k } else { 0 }],
+        };
+        for q in 0..k {
+            let d = self.dims[q];
+            let (f, qn) = motion_matrices(self.cfg.order[q], tau, self.cfg.process_std[q]);
+            let r = self.cfg.measurement_std[q].powi(2);
+            let (so, co) = (self.state_off[q], self.cov_off[q]);
+            for i in 0..n {
+                let xs = i * w.state + so..i * w.state + so + d;
+                let cs = i * w.cov + co..i * w.cov + co + d * d;
+                predict(
+                    &f,
+                    &qn,
+                    &h.x[xs.clone()],
+                    &h.p[cs.clone()],
+                    &mut pr.x[xs],
+                    &mut pr.p[cs.clone()],
+                );
+                pr.s[i * k + q] = pr.p[cs.start] + r;
+                if let Some(man) = maneuver {
+                    let mut g = [0.0; 2];
+                    g[0] = if d > 1 { t - h.t_last[i] } else { 1.0 };
+                    g[1] = 1.0;
+                    let m2 = man[q] * man[q];
+                    let gl = d.min(2);
+                    for a in 0..d {
+                        for b in 0..d {
+                            let jump = if a < gl && b < gl {
+                                m2 * g[a] * g[b]
+                            } else {
+                                0.0
+                            };
+                            pr.p_man[cs.start + a * d + b] = pr.p[cs.start + a * d + b] + jump;
+                        }
+                    }
+                    pr.s_man[i * k + q] = pr.p_man[cs.start] + r;
+                }
+            }
+        }
+        pr
+    }
+
+    /// Predict, gate and branch every live sequence (SPEC §3.1, §3.2, §3.3 step 2). Returns
+    /// the children (with the parent node in `node`) and the sequences that end.
+    fn branch(&self, h: &Hypotheses, input: &FrameInput, tau: f64) -> (Hypotheses, Vec<usize>) {
+        let (k, s, w, n) = (self.k(), self.cfg.n_spatial, self.w, h.len());
+        let cfg = &self.cfg;
+        let (lam, lam_s) = self.density();
+        let pr = self.predict_all(h, tau, input.t);
+        let nu_max = cfg.nu_max() as i64;
+        let r_max = (0..s)
+            .map(|q| cfg.measurement_std[q].powi(2))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let man = cfg.maneuver_std.is_some();
+        let mut gate = vec![0.0; n];
+        let mut centre = vec![0.0; n * s];
+        let mut radius = vec![0.0; n];
+        let mut r_ls = vec![0.0; n];
+        for i in 0..n {
+            let n_new = (h.n_inc[i] + 1).min(cfg.memory as i64) as usize;
+            let kept: f64 = h.inc[i * w.memory + 1..(i + 1) * w.memory].iter().sum();
+            gate[i] = (self.alpha[n_new] - kept).max(0.0);
+            let s_max = (0..s)
+                .map(|q| {
+                    let v = pr.s[i * k + q];
+                    if man {
+                        v.max(pr.s_man[i * k + q])
+                    } else {
+                        v
+                    }
+                })
+                .fold(f64::NEG_INFINITY, f64::max);
+            r_ls[i] = cfg.max_speed * (input.t - h.t_last[i]) + 3.0 * (2.0 * r_max).sqrt();
+            if h.hits[i] <= nu_max {
+                centre[i * s..(i + 1) * s].copy_from_slice(&h.pos_last[i * s..(i + 1) * s]);
+                radius[i] = r_ls[i];
+            } else {
+                for q in 0..s {
+                    centre[i * s + q] = pr.x[i * w.state + self.state_off[q]];
+                }
+                radius[i] = (gate[i] * s_max).sqrt();
+            }
+        }
+        let pairs = ball_pairs(input.z, k, s, &centre, &radius);
+        let mut children = Hypotheses::default();
+        let mut has_hit = vec![false; n];
+        let ball = PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0);
+        let variants: &[(bool, f64)] = if man {
+            &[(false, 0.0), (true, cfg.maneuver_prob.ln())]
+        } else {
+            &[(false, 0.0)]
+        };
+        let ln_pd = cfg.p_detect.ln();
+        for &(is_man, penalty) in variants {
+            let (p_var, s_var) = if is_man {
+                (&pr.p_man, &pr.s_man)
+            } else {
+                (&pr.p, &pr.s)
+            };
+            for &(i, j) in &pairs {
+                let ls = h.hits[i] <= nu_max;
+                if is_man && ls {
+                    continue;
+                }
+                let zj = &input.z[j * k..(j + 1) * k];
+                let sv = &s_var[i * k..(i + 1) * k];
+                let mut inc = 0.0;
+                for q in 0..k {
+                    let v = zj[q] - pr.x[i * w.state + self.state_off[q]];
+                    inc += v * v / sv[q];
+                }
+                if !ls && inc > gate[i] {
+                    continue;
+                }
+                has_hit[i] = true;
+                children.push_row(h, i, w);
+                let c = children.len() - 1;
+                for q in 0..k {
+                    let d = self.dims[q];
+                    let xs = i * w.state + self.state_off[q];
+                    let cs = i * w.cov + self.cov_off[q];
+                    let v = zj[q] - pr.x[xs];
+                    update(
+                        &pr.x[xs..xs + d],
+                        &p_var[cs..cs + d * d],
+                        sv[q],
+                        v,
+                        &mut children.x[c * w.state + self.state_off[q]..][..d],
+                        &mut children.p[c * w.cov + self.cov_off[q]..][..d * d],
+                    );
+                }
+                let dl = if ls {
+                    ln_pd - (ball * r_ls[i].powi(s as i32) * lam_s).ln()
+                } else {
+                    let log_s: f64 = sv.iter().map(|&v| (2.0 * PI * v).ln()).sum();
+                    ln_pd - lam.ln() - 0.5 * log_s - 0.5 * inc + penalty
+                };
+                self.finish_hit(
+                    &mut children,
+                    c,
+                    if ls { None } else { Some(inc) },
+                    dl,
+                    zj,
+                    input,
+                    j,
+                );
+            }
+        }
+        let ln_miss = (-cfg.p_detect).ln_1p();
+        let mut ended = Vec::new();
+        for i in 0..n {
+            if h.miss[i] < cfg.max_misses as i64 {
+                children.push_row(h, i, w);
+                let c = children.len() - 1;
+                children.x[c * w.state..(c + 1) * w.state]
+                    .copy_from_slice(&pr.x[i * w.state..(i + 1) * w.state]);
+                children.p[c * w.cov..(c + 1) * w.cov]
+                    .copy_from_slice(&pr.p[i * w.cov..(i + 1) * w.cov]);
+                children.llr[c] += ln_miss;
+                children.miss[c] += 1;
+                children.cur[c] = MISS;
+                self.confirm(&mut children, c);
+            } else if !has_hit[i] {
+                ended.push(i);
+            }
+        }
+        (children, ended)
+    }
+
+    /// Bookkeeping of a child that took measurement j (increment `inc`, None for a start point).
+    #[allow(clippy::too_many_arguments)]
+    fn finish_hit(
+        &self,
+        c: &mut Hypotheses,
+        row: usize,
+        inc: Option<f64>,
+        dl: f64,
+        zj: &[f64],
+        input: &FrameInput,
+        j: usize,
+    ) {
+        let w = self.w;
+        if let Some(inc) = inc {
+            let window = &mut c.inc[row * w.memory..(row + 1) * w.memory];
+            window.rotate_left(1);
+            window[w.memory - 1] = inc;
+            c.n_inc[row] += 1;
+            c.i_tot[row] += inc;
+        }
+        c.llr[row] += dl;
+        c.hits[row] += 1;
+        c.miss[row] = 0;
+        c.t_last[row] = input.t;
+        c.pos_last[row * w.spatial..(row + 1) * w.spatial].copy_from_slice(&zj[..w.spatial]);
+        c.llr_last[row] = c.llr[row];
+        c.node_last[row] = -1;
+        let gid = input.gid0 + j as i64;
+        let recent = &mut c.recent[row * w.depth..(row + 1) * w.depth];
+        recent.rotate_left(1);
+        recent[w.depth - 1] = gid;
+        c.cur[row] = gid;
+        self.confirm(c, row);
+    }
+
+    fn confirm(&self, c: &mut Hypotheses, row: usize) {
+        c.conf[row] = c.conf[row]
+            || (c.hits[row] >= self.cfg.n_confirm as i64 && c.llr[row] >= self.cfg.confirm_llr);
+    }
+
+    /// Records ended confirmed sequences as their tree's candidate (best score wins).
+    fn terminate(&mut self, h: &Hypotheses, ended: &[usize]) {
+        let mut term: Vec<usize> = ended.iter().copied().filter(|&i| h.conf[i]).collect();
+        term.sort_by(|&a, &b| h.llr_last[a].total_cmp(&h.llr_last[b]));
+        for i in term {
+            self.offer_candidate(h.tree[i], h.node_last[i], h.llr_last[i]);
+        }
+    }
+
+    /// Makes (node, score) the tree's candidate if it beats the current one.
+    pub(crate) fn offer_candidate(&mut self, tree: i64, node: i64, llr: f64) {
+        let tr = tree as usize;
+        if self.tree_cand[tr] < 0 || llr > self.tree_cand_llr[tr] {
+            self.tree_cand[tr] = node;
+            self.tree_cand_llr[tr] = llr;
+        }
+    }
+
+    /// Stores the surviving children as nodes.
+    fn commit(&mut self, mut c: Hypotheses) -> Hypotheses {
+        let w = self.w;
+        for i in 0..c.len() {
+            let index: f64 = c.inc[i * w.memory..(i + 1) * w.memory].iter().sum();
+            let id = self.nodes.add(
+                c.node[i],
+                self.frame,
+                c.cur[i],
+                &c.x[i * w.state..(i + 1) * w.state],
+                index,
+                c.llr[i],
+            );
+            if c.cur[i] >= 0 {
+                c.node_last[i] = id;
+            }
+            c.node[i] = id;
+            if c.conf[i] {
+                self.tree_conf[c.tree[i] as usize] = true;
+            }
+        }
+        c
+    }
+
+    /// Trees that lost every sequence: their best ended confirmed sequence is final.
+    fn close_dead_trees(&mut self, h: &Hypotheses) {
+        let mut alive = vec![false; self.tree_alive.len()];
+        for &tr in &h.tree {
+            alive[tr as usize] = true;
+        }
+        for tr in 0..alive.len() {
+            if self.tree_alive[tr] && !alive[tr] && self.tree_conf[tr] && self.tree_cand[tr] >= 0 {
+                self.finished
+                    .push((self.tree_cand[tr], self.tree_cand_llr[tr]));
+            }
+        }
+        self.tree_alive = alive;
+    }
+
+    /// Measurements of this frame no confirmed sequence uses (at most `max_seeds`: those with
+    /// the smallest splitmix64 hash of (seed, global id), a deterministic random subset).
+    fn seed_candidates(&self, h: &Hypotheses, m: usize, gid0: i64) -> Vec<usize> {
+        let mut used = vec![false; m];
+        for i in 0..h.len() {
+            if h.conf[i] && h.cur[i] >= gid0 {
+                used[(h.cur[i] - gid0) as usize] = true;
+            }
+        }
+        let mut new: Vec<usize> = (0..m).filter(|&j| !used[j]).collect();
+        if new.len() > self.cfg.max_seeds {
+            let key = |j: usize| splitmix64(self.cfg.seed ^ (gid0 + j as i64) as u64);
+            new.sort_by_key(|&j| (key(j), j));
+            new.truncate(self.cfg.max_seeds);
+            new.sort_unstable();
+        }
+        new
+    }
+
+    /// Starts one sequence (and one track tree) per measurement in `new` (SPEC §3.3 step 3).
+    fn seed(&mut self, h: &mut Hypotheses, input: &FrameInput, new: &[usize]) {
+        let (k, w) = (self.k(), self.w);
+        for &j in new {
+            let zj = &input.z[j * k..(j + 1) * k];
+            let tree = self.tree_conf.len() as i64;
+            self.tree_conf.push(false);
+            self.tree_cand.push(-1);
+            self.tree_cand_llr.push(0.0);
+            self.tree_alive.push(true);
+            let mut x = vec![0.0; w.state];
+            for q in 0..k {
+                x[self.state_off[q]] = zj[q];
+            }
+            let gid = input.gid0 + j as i64;
+            let id = self.nodes.add(-1, self.frame, gid, &x, 0.0, 0.0);
+            h.node.push(id);
+            h.tree.push(tree);
+            h.x.extend_from_slice(&x);
+            h.p.extend_from_slice(&self.p0);
+            h.inc.extend(std::iter::repeat_n(0.0, w.memory));
+            h.n_inc.push(0);
+            h.i_tot.push(0.0);
+            h.llr.push(0.0);
+            h.hits.push(1);
+            h.miss.push(0);
+            h.t_last.push(input.t);
+            h.pos_last.extend_from_slice(&zj[..w.spatial]);
+            h.llr_last.push(0.0);
+            h.node_last.push(id);
+            h.recent.extend(std::iter::repeat_n(NONE, w.depth - 1));
+            h.recent.push(gid);
+            h.cur.push(gid);
+            h.conf.push(false);
+            h.start.push(self.frame);
+        }
+    }
+
+    /// Confirmed live sequences in decreasing score, at most one per tree, none sharing one of
+    /// its last D measurements with a sequence taken before.
+    pub fn greedy_answer(&self) -> Vec<usize> {
+        let h = &self.h;
+        let mut idx: Vec<usize> = (0..h.len()).filter(|&i| h.conf[i]).collect();
+        idx.sort_by(|&a, &b| h.llr[b].total_cmp(&h.llr[a]));
+        let mut trees = std::collections::HashSet::new();
+        let mut meas = std::collections::HashSet::new();
+        let mut out = Vec::new();
+        for i in idx {
+            let recent = h.recent_row(i, self.w);
+            if trees.contains(&h.tree[i]) || recent.iter().any(|g| *g >= 0 && meas.contains(g)) {
+                continue;
+            }
+            trees.insert(h.tree[i]);
+            meas.extend(recent.iter().copied().filter(|&g| g >= 0));
+            out.push(i);
+        }
+        out
+    }
+
+    fn online_answer(&mut self) {
+        let (k, w) = (self.k(), self.w);
+        for i in self.greedy_answer() {
+            self.online.frame.push(self.frame);
+            self.online.tree.push(self.h.tree[i]);
+            for q in 0..k {
+                self.online
+                    .position
+                    .push(self.h.x[i * w.state + self.state_off[q]]);
+            }
+            self.online.coasted.push(self.h.cur[i] < 0);
+            self.online.llr.push(self.h.llr[i]);
+        }
+    }
+
+    /// Drops the nodes no live sequence, candidate or final answer can reach.
+    pub fn compact(&mut self) {
+        let alive_cands: Vec<i64> = (0..self.tree_cand.len())
+            .filter(|&tr| self.tree_alive[tr] && self.tree_cand[tr] >= 0)
+            .map(|tr| self.tree_cand[tr])
+            .collect();
+        let roots = self
+            .h
+            .node
+            .iter()
+            .chain(&self.h.node_last)
+            .copied()
+            .chain(self.finished.iter().map(|f| f.0))
+            .chain(alive_cands)
+            .collect::<Vec<i64>>();
+        let remap = self.nodes.compact(roots);
+        for id in self.h.node.iter_mut().chain(self.h.node_last.iter_mut()) {
+            *id = remapped(&remap, *id);
+        }
+        for f in &mut self.finished {
+            f.0 = remapped(&remap, f.0);
+        }
+        for tr in 0..self.tree_cand.len() {
+            self.tree_cand[tr] = if self.tree_alive[tr] {
+                remapped(&remap, self.tree_cand[tr])
+            } else {
+                -1
+            };
+        }
+        self.compact_at = 200_000.max(4 * self.nodes.len());
+    }
+
+    /// (frame, row within the frame) of a global measurement id.
+    pub fn detection_frame(&self, gid: i64) -> Option<(usize, i64)> {
+        if gid < 0 || gid >= self.n_meas {
+            return None;
+        }
+        let f = self.frame_offsets.partition_point(|&o| o <= gid) - 1;
+        Some((f, gid - self.frame_offsets[f]))
+    }
+}
+
+/// The splitmix64 finaliser (a portable hash for the deterministic seed subset).
+pub fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// All (sequence i, measurement j) with ‖z_j[..s] − centre_i‖ ≤ radius_i, ordered by i then j.
+fn ball_pairs(
+    z: &[f64],
+    k: usize,
+    s: usize,
+    centre: &[f64],
+    radius: &[f64],
+) -> Vec<(usize, usize)> {
+    let m = z.len() / k;
+    let mut by_x: Vec<usize> = (0..m).collect();
+    by_x.sort_by(|&a, &b| z[a * k].total_cmp(&z[b * k]));
+    let xs: Vec<f64> = by_x.iter().map(|&j| z[j * k]).collect();
+    let mut pairs = Vec::new();
+    let mut found = Vec::new();
+    for (i, &r) in radius.iter().enumerate() {
+        let c = &centre[i * s..(i + 1) * s];
+        let first = xs.partition_point(|&x| x < c[0] - r);
+        let last = xs.partition_point(|&x| x <= c[0] + r);
+        found.clear();
+        for &j in &by_x[first..last] {
+            let d2: f64 = (0..s).map(|q| (z[j * k + q] - c[q]).powi(2)).sum();
+            if d2 <= r * r {
+                found.push(j);
+            }
+        }
+        found.sort_unstable();
+        pairs.extend(found.iter().map(|&j| (i, j)));
+    }
+    pairs
+}

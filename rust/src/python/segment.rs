@@ -1,0 +1,107 @@
+//! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment`.
+
+use crate::segment::{segment as segment_kernel, Pixel, Segment, Segmentation};
+use numpy::{
+    Element, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Adds `segment` to the module.
+pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(segment, m)?)
+}
+
+/// (columns of the segment table, label image) of a thresholded frame.
+type SegmentArrays<'py> = (Bound<'py, PyDict>, Bound<'py, PyArray2<i32>>);
+
+/// Segments a 2-D C-contiguous uint8/uint16/float32/float64 frame (SPEC §3): foreground
+/// v > threshold, `connectivity` 4 or 8, segments of area < `min_area` dropped. Returns the
+/// table (label, x, y, amplitude, area, extent_x, extent_y, bbox_x0, bbox_y0, bbox_x1,
+/// bbox_y1; int64 for label, area and bbox, float64 otherwise) and the int32 label image.
+#[pyfunction]
+fn segment<'py>(
+    py: Python<'py>,
+    frame: &Bound<'py, PyAny>,
+    threshold: f64,
+    min_area: usize,
+    connectivity: u8,
+) -> PyResult<SegmentArrays<'py>> {
+    let array = frame
+        .cast::<PyUntypedArray>()
+        .map_err(|_| PyTypeError::new_err("frame must be a numpy array"))?;
+    let shape = match array.shape() {
+        &[h, w] => [h, w],
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "frame must be 2-D, got {} dimensions",
+                other.len()
+            )))
+        }
+    };
+    let into_arrays = |s: Segmentation| -> PyResult<SegmentArrays<'py>> {
+        let labels = PyArray1::from_vec(py, s.labels).reshape(shape)?;
+        Ok((table(py, &s.segments)?, labels))
+    };
+    macro_rules! try_dtype {
+        ($($t:ty),*) => {$(
+            if let Ok(a) = frame.extract::<PyReadonlyArray2<$t>>() {
+                return into_arrays(kernel(py, &a, threshold, min_area, connectivity)?);
+            }
+        )*};
+    }
+    try_dtype!(u8, u16, f32, f64);
+    Err(PyTypeError::new_err(format!(
+        "frame dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
+        array.dtype()
+    )))
+}
+
+/// Runs the kernel on the array's pixels with the GIL released.
+fn kernel<T: Pixel + Element>(
+    py: Python<'_>,
+    frame: &PyReadonlyArray2<'_, T>,
+    threshold: f64,
+    min_area: usize,
+    connectivity: u8,
+) -> PyResult<Segmentation> {
+    let (h, w) = (frame.shape()[0], frame.shape()[1]);
+    let values = frame
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("frame must be C-contiguous"))?;
+    Ok(py.detach(|| segment_kernel(values, h, w, threshold, min_area, connectivity))?)
+}
+
+/// A column name and how to read it off a segment.
+type Column<T> = (&'static str, fn(&Segment) -> T);
+
+/// The segment table as a dict of 1-D arrays.
+fn table<'py>(py: Python<'py>, segments: &[Segment]) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    let ints: [Column<usize>; 6] = [
+        ("label", |s| s.label),
+        ("area", |s| s.area),
+        ("bbox_x0", |s| s.bbox_x0),
+        ("bbox_y0", |s| s.bbox_y0),
+        ("bbox_x1", |s| s.bbox_x1),
+        ("bbox_y1", |s| s.bbox_y1),
+    ];
+    let floats: [Column<f64>; 5] = [
+        ("x", |s| s.x),
+        ("y", |s| s.y),
+        ("amplitude", |s| s.amplitude),
+        ("extent_x", |s| s.extent_x),
+        ("extent_y", |s| s.extent_y),
+    ];
+    for (name, get) in ints {
+        let column: Vec<i64> = segments.iter().map(|s| get(s) as i64).collect();
+        dict.set_item(name, PyArray1::from_vec(py, column))?;
+    }
+    for (name, get) in floats {
+        let column: Vec<f64> = segments.iter().map(get).collect();
+        dict.set_item(name, PyArray1::from_vec(py, column))?;
+    }
+    Ok(dict)
+}
