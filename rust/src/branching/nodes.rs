@@ -89,10 +89,7 @@ impl Nodes {
         }
         let ns = self.n_state;
         let mut w = 0;
-        for old in 0..n {
-            if !keep[old] {
-                continue;
-            }
+        for (old, _) in keep.iter().enumerate().take(n).filter(|(_, &k)| k) {
             let p = self.parent[old];
             self.parent[w] = if p >= 0 { remap[p as usize] } else { -1 };
             self.frame[w] = self.frame[old];

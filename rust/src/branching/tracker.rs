@@ -177,9 +177,9 @@ impl BranchingTracker {
         let gid0 = self.n_meas;
         self.frame_offsets.push(gid0);
         for row in z.chunks_exact(k) {
-            for q in 0..k {
-                self.lo[q] = self.lo[q].min(row[q]);
-                self.hi[q] = self.hi[q].max(row[q]);
+            for ((lo, hi), &v) in self.lo.iter_mut().zip(self.hi.iter_mut()).zip(row) {
+                *lo = lo.min(v);
+                *hi = hi.max(v);
             }
         }
         self.count += m as i64;
@@ -391,8 +391,8 @@ impl BranchingTracker {
         }
         let ln_miss = (-cfg.p_detect).ln_1p();
         let mut ended = Vec::new();
-        for i in 0..n {
-            if h.miss[i] < cfg.max_misses as i64 {
+        for (i, &miss) in h.miss.iter().enumerate().take(n) {
+            if miss < cfg.max_misses as i64 {
                 children.push_row(h, i, w);
                 let c = children.len() - 1;
                 children.x[c * w.state..(c + 1) * w.state]
@@ -498,8 +498,8 @@ impl BranchingTracker {
         for &tr in &h.tree {
             alive[tr as usize] = true;
         }
-        for tr in 0..alive.len() {
-            if self.tree_alive[tr] && !alive[tr] && self.tree_conf[tr] && self.tree_cand[tr] >= 0 {
+        for (tr, &now) in alive.iter().enumerate() {
+            if self.tree_alive[tr] && !now && self.tree_conf[tr] && self.tree_cand[tr] >= 0 {
                 self.finished
                     .push((self.tree_cand[tr], self.tree_cand_llr[tr]));
             }

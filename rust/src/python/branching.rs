@@ -13,7 +13,7 @@ pub struct PyBranchingTracker {
 }
 
 fn array2<'py>(py: Python<'py>, v: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let rows = if cols == 0 { 0 } else { v.len() / cols };
+    let rows = v.len().checked_div(cols).unwrap_or(0);
     PyArray1::from_vec(py, v).reshape([rows, cols])
 }
 
