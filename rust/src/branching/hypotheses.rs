@@ -60,6 +60,30 @@ impl Hypotheses {
         self.llr.is_empty()
     }
 
+    /// Empty, with room for `n` rows.
+    pub fn with_capacity(n: usize, w: Widths) -> Hypotheses {
+        Hypotheses {
+            node: Vec::with_capacity(n),
+            tree: Vec::with_capacity(n),
+            x: Vec::with_capacity(n * w.state),
+            p: Vec::with_capacity(n * w.cov),
+            inc: Vec::with_capacity(n * w.memory),
+            n_inc: Vec::with_capacity(n),
+            i_tot: Vec::with_capacity(n),
+            llr: Vec::with_capacity(n),
+            hits: Vec::with_capacity(n),
+            miss: Vec::with_capacity(n),
+            t_last: Vec::with_capacity(n),
+            pos_last: Vec::with_capacity(n * w.spatial),
+            llr_last: Vec::with_capacity(n),
+            node_last: Vec::with_capacity(n),
+            recent: Vec::with_capacity(n * w.depth),
+            cur: Vec::with_capacity(n),
+            conf: Vec::with_capacity(n),
+            start: Vec::with_capacity(n),
+        }
+    }
+
     /// Appends a copy of row `i` of `other`.
     pub fn push_row(&mut self, other: &Hypotheses, i: usize, w: Widths) {
         self.node.push(other.node[i]);
@@ -89,7 +113,7 @@ impl Hypotheses {
 
     /// The rows `idx`, in that order.
     pub fn take(&self, idx: &[usize], w: Widths) -> Hypotheses {
-        let mut out = Hypotheses::default();
+        let mut out = Hypotheses::with_capacity(idx.len(), w);
         for &i in idx {
             out.push_row(self, i, w);
         }

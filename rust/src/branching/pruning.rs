@@ -43,28 +43,35 @@ fn time_out(tr: &BranchingTracker, c: &Hypotheses) -> Vec<usize> {
 /// Rule 2: same tree, same last D measurements, same miss run → only the best survives.
 fn merge_within_trees(c: &Hypotheses, w: Widths, idx: Vec<usize>) -> Vec<usize> {
     let key = |i: usize| (c.tree[i], c.recent_row(i, w), c.miss[i]);
-    let hash: Vec<u64> = idx
+    // Sorting plain (hash, score rank, row) tuples groups equal keys best first; only a run
+    // of equal hashes holding different keys (a collision) needs the keys themselves.
+    let mut order: Vec<(u64, i64, usize)> = idx
         .iter()
         .map(|&i| {
             let (tree, recent, miss) = key(i);
-            hash_ids([tree, miss].into_iter().chain(recent.iter().copied()))
+            let h = hash_ids([tree, miss].into_iter().chain(recent.iter().copied()));
+            (h, descending(c.llr[i]), i)
         })
         .collect();
-    let mut order: Vec<usize> = (0..idx.len()).collect();
-    order.sort_unstable_by(|&a, &b| {
-        hash[a]
-            .cmp(&hash[b])
-            .then_with(|| key(idx[a]).cmp(&key(idx[b])))
-            .then_with(|| by_score(c, idx[a], idx[b]))
-    });
-    let mut keep: Vec<usize> = order
-        .iter()
-        .enumerate()
-        .filter(|&(pos, &a)| pos == 0 || key(idx[order[pos - 1]]) != key(idx[a]))
-        .map(|(_, &a)| idx[a])
-        .collect();
+    order.sort_unstable();
+    let mut keep = Vec::with_capacity(order.len());
+    for run in order.chunk_by(|a, b| a.0 == b.0) {
+        if run.iter().all(|r| key(r.2) == key(run[0].2)) {
+            keep.push(run[0].2);
+            continue;
+        }
+        let mut rows: Vec<usize> = run.iter().map(|r| r.2).collect();
+        rows.sort_unstable_by(|&a, &b| key(a).cmp(&key(b)).then_with(|| by_score(c, a, b)));
+        keep.extend(rows.chunk_by(|&a, &b| key(a) == key(b)).map(|g| g[0]));
+    }
     keep.sort_unstable();
     keep
+}
+
+/// An integer whose ascending order is the decreasing `total_cmp` order of the score.
+fn descending(llr: f64) -> i64 {
+    let bits = llr.to_bits() as i64;
+    !(bits ^ (((bits >> 63) as u64) >> 1) as i64)
 }
 
 /// Rule 3: at most K per tree, plus each tree's best and best exclusive sequence.
@@ -72,22 +79,26 @@ fn cap_per_tree(c: &Hypotheses, w: Widths, max_per_tree: usize, idx: Vec<usize>)
     if idx.is_empty() {
         return idx;
     }
-    let protect = protected(c, w, &idx);
-    let mut order: Vec<usize> = (0..idx.len()).collect();
-    order.sort_unstable_by(|&a, &b| {
-        c.tree[idx[a]]
-            .cmp(&c.tree[idx[b]])
-            .then(protect[b].cmp(&protect[a]))
-            .then_with(|| by_score(c, idx[a], idx[b]))
-    });
-    let mut keep = Vec::with_capacity(order.len());
-    let mut rank = 0;
-    for (pos, &a) in order.iter().enumerate() {
-        let same_tree = pos > 0 && c.tree[idx[order[pos - 1]]] == c.tree[idx[a]];
-        rank = if same_tree { rank + 1 } else { 0 };
-        if rank < max_per_tree {
-            keep.push(idx[a]);
-        }
+    let trees = DenseMap::new(idx.iter().map(|&i| c.tree[i]), 0);
+    let mut count = vec![0usize; trees.values.len()];
+    for &i in &idx {
+        count[(c.tree[i] - trees.lo) as usize] += 1;
+    }
+    let crowded = |i: usize| count[(c.tree[i] - trees.lo) as usize] > max_per_tree;
+    if !idx.iter().any(|&i| crowded(i)) {
+        return idx;
+    }
+    // Only trees with more than K sequences need the ranking (the others keep all).
+    let protect = protected(c, w, &idx, &trees, &crowded);
+    let mut order: Vec<(i64, bool, i64, usize)> = idx
+        .iter()
+        .filter(|&&i| crowded(i))
+        .map(|&i| (c.tree[i], !protect[i], descending(c.llr[i]), i))
+        .collect();
+    order.sort_unstable();
+    let mut keep: Vec<usize> = idx.iter().copied().filter(|&i| !crowded(i)).collect();
+    for tree in order.chunk_by(|a, b| a.0 == b.0) {
+        keep.extend(tree.iter().take(max_per_tree).map(|r| r.3));
     }
     keep.sort_unstable();
     keep
@@ -132,11 +143,17 @@ fn best_per_tree(c: &Hypotheses, trees: &DenseMap, rows: impl Iterator<Item = us
 const FREE: i64 = -3;
 const CONTESTED: i64 = -1;
 
-/// Sequences (positions in `idx`) kept whatever their rank: per tree its best one and its best
+/// Rows (indexed by row of `c`) kept whatever their rank: per tree its best one and its best
 /// *exclusive* one (sharing none of its last D measurements with the best of another tree).
-fn protected(c: &Hypotheses, w: Widths, idx: &[usize]) -> Vec<bool> {
-    let trees = DenseMap::new(idx.iter().map(|&i| c.tree[i]), 0);
-    let best = best_per_tree(c, &trees, idx.iter().copied());
+/// Only rows of `crowded` trees are marked (the only ones the rank can cut).
+fn protected(
+    c: &Hypotheses,
+    w: Widths,
+    idx: &[usize],
+    trees: &DenseMap,
+    crowded: &impl Fn(usize) -> bool,
+) -> Vec<bool> {
+    let best = best_per_tree(c, trees, idx.iter().copied());
     let bests: Vec<usize> = best
         .iter()
         .filter(|&&b| b >= 0)
@@ -153,65 +170,87 @@ fn protected(c: &Hypotheses, w: Widths, idx: &[usize]) -> Vec<bool> {
         }
     }
     let exclusive = idx.iter().copied().filter(|&i| {
-        c.recent_row(i, w).iter().all(|&g| match owner.get(g) {
-            None | Some(FREE) => true,
-            Some(t) => t == c.tree[i],
-        })
+        crowded(i)
+            && c.recent_row(i, w).iter().all(|&g| match owner.get(g) {
+                None | Some(FREE) => true,
+                Some(t) => t == c.tree[i],
+            })
     });
-    let best_exclusive = best_per_tree(c, &trees, exclusive);
+    let best_exclusive = best_per_tree(c, trees, exclusive);
     let mut is_protected = vec![false; c.len()];
     for &b in best.iter().chain(&best_exclusive).filter(|&&b| b >= 0) {
         is_protected[b as usize] = true;
     }
-    idx.iter().map(|&i| is_protected[i]).collect()
+    is_protected
 }
 
 /// Rule 4: of two trees' sequences with the same last D entries, the younger one dies when it
 /// has at most ν_max+1 measurements the older one lacks.
 fn cross_tree_duplicates(tr: &BranchingTracker, c: &Hypotheses, idx: Vec<usize>) -> Vec<usize> {
     let w = tr.w;
-    let mut group: Vec<usize> = idx
+    // (hash of the last D entries, row) of the sequences with at least two measured entries;
+    // sorted, equal rows become runs and only runs spanning two trees need the exact rule.
+    let mut by_hash: Vec<(u64, usize)> = idx
         .iter()
         .copied()
         .filter(|&i| c.recent_row(i, w).iter().filter(|&&g| g >= 0).count() >= 2)
+        .map(|i| (hash_ids(c.recent_row(i, w).iter().copied()), i))
         .collect();
-    if group.len() < 2 {
+    if by_hash.len() < 2 {
         return idx;
     }
-    let hash: Vec<u64> = (0..c.len())
-        .map(|i| hash_ids(c.recent_row(i, w).iter().copied()))
-        .collect();
-    group.sort_unstable_by(|&a, &b| {
-        hash[a]
-            .cmp(&hash[b])
-            .then_with(|| c.recent_row(a, w).cmp(c.recent_row(b, w)))
-            .then(c.start[a].cmp(&c.start[b]))
-            .then_with(|| by_score(c, a, b))
-    });
+    by_hash.sort_unstable();
     let mut dead = vec![false; c.len()];
+    let mut run: Vec<usize> = Vec::new();
     let mut lo = 0;
-    while lo < group.len() {
+    while lo < by_hash.len() {
         let mut hi = lo + 1;
-        while hi < group.len() && c.recent_row(group[hi], w) == c.recent_row(group[lo], w) {
+        while hi < by_hash.len() && by_hash[hi].0 == by_hash[lo].0 {
             hi += 1;
         }
-        let members = &group[lo..hi];
-        if members.iter().any(|&i| c.tree[i] != c.tree[members[0]]) {
-            let mut kept: Vec<usize> = Vec::new();
-            for &y in members {
-                let killed = kept
-                    .iter()
-                    .any(|&o| c.tree[o] != c.tree[y] && dominated(tr, c, y, o));
-                if killed {
-                    dead[y] = true;
-                } else {
-                    kept.push(y);
-                }
+        let first_tree = c.tree[by_hash[lo].1];
+        if by_hash[lo..hi]
+            .iter()
+            .any(|&(_, i)| c.tree[i] != first_tree)
+        {
+            run.clear();
+            run.extend(by_hash[lo..hi].iter().map(|&(_, i)| i));
+            run.sort_unstable_by(|&a, &b| {
+                c.recent_row(a, w)
+                    .cmp(c.recent_row(b, w))
+                    .then(c.start[a].cmp(&c.start[b]))
+                    .then_with(|| by_score(c, a, b))
+            });
+            for members in run.chunk_by(|&a, &b| c.recent_row(a, w) == c.recent_row(b, w)) {
+                kill_younger_duplicates(tr, c, members, &mut dead);
             }
         }
         lo = hi;
     }
     idx.into_iter().filter(|&i| !dead[i]).collect()
+}
+
+/// One group of sequences with equal last D entries (oldest start first, then by score).
+fn kill_younger_duplicates(
+    tr: &BranchingTracker,
+    c: &Hypotheses,
+    members: &[usize],
+    dead: &mut [bool],
+) {
+    if members.iter().all(|&i| c.tree[i] == c.tree[members[0]]) {
+        return;
+    }
+    let mut kept: Vec<usize> = Vec::new();
+    for &y in members {
+        let killed = kept
+            .iter()
+            .any(|&o| c.tree[o] != c.tree[y] && dominated(tr, c, y, o));
+        if killed {
+            dead[y] = true;
+        } else {
+            kept.push(y);
+        }
+    }
 }
 
 /// True when sequence y has at most ν_max+1 measurements that sequence o lacks (both chains

@@ -325,7 +325,8 @@ impl BranchingTracker {
             }
         }
         let pairs = ball_pairs(input.z, k, s, &centre, &radius);
-        let mut children = Hypotheses::default();
+        let n_variants = if man { 2 } else { 1 };
+        let mut children = Hypotheses::with_capacity(n_variants * pairs.len() + n, w);
         let mut has_hit = vec![false; n];
         let ball = PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0);
         let variants: &[(bool, f64)] = if man {
