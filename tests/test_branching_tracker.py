@@ -17,7 +17,6 @@ import subprocess
 import sys
 import textwrap
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 import pandas as pd
@@ -436,12 +435,6 @@ CORRUPT_N_MEAS = textwrap.dedent(
 )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="load_state does not check n_meas (nor h.recent ids) against frame_offsets: a "
-    "corrupt state loads, and the next update() aborts the interpreter (memory allocation "
-    "of 8.8e12 bytes failed, SIGABRT) instead of raising ValueError",
-)
 def test_corrupt_counter_in_state_is_an_error_not_an_abort():
     proc = subprocess.run(
         [sys.executable, "-c", CORRUPT_N_MEAS],
@@ -633,11 +626,6 @@ def test_link_equals_the_tracker_it_wraps(detections):
     np.testing.assert_array_equal(out.particle.to_numpy(), expected)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="link() returns detections.reset_index(drop=True) plus particle: a non-default "
-    "index of the input is replaced by a RangeIndex (the reference link does the same)",
-)
 def test_link_keeps_the_index(detections):
     det = detections.set_axis(detections.index * 10 + 3)
     out = kf.link(det, **LINK_KW)
@@ -692,19 +680,6 @@ def test_heavy_clutter_stays_bounded():
 
 
 # ------------------------------------------------------------------------------- 9. property
-class _StableSortNumpy:
-    """``numpy`` as seen by the reference, with a stable default ``argsort``: the one fix the
-    known tie-breaking divergence (test_terminated_candidate_ties_*) needs, so the property
-    test below looks for other divergences."""
-
-    def __getattr__(self, name):
-        return getattr(np, name)
-
-    @staticmethod
-    def argsort(a, axis=-1, kind=None, order=None):
-        return np.argsort(a, axis=axis, kind="stable" if kind is None else kind, order=order)
-
-
 TIE_FRAMES = [
     [[33.0, 40.0]],
     [[26.0, 30.0], [5.0, 16.0], [27.0, 37.0]],
@@ -713,32 +688,17 @@ TIE_FRAMES = [
     [], [], [], [],
 ]  # fmt: skip
 TIE_CONFIG = dict(order=2, n_confirm=2, final_llr=-10.0, max_misses=3)
-# numpy ≥ 2 sorts with x86-simd-sort: its default argsort is not stable even on 4 elements
-_UNSTABLE_ARGSORT = not np.array_equal(np.argsort([1.0, 1.0, -2.0, -2.0]), [2, 3, 0, 1])
 
 
 def _tie_case(cls):
     return run(cls, [np.array(z, float).reshape(-1, 2) for z in TIE_FRAMES], **TIE_CONFIG)
 
 
-@pytest.mark.xfail(
-    _UNSTABLE_ARGSORT,
-    strict=True,
-    reason="reference _terminate orders the ended sequences with the default (unstable) "
-    "np.argsort(h.llr_last[term]); with equal scores (start points of an order-2 model all "
-    "score ln P_d − ln(λ_s V)) the tree's candidate depends on numpy's SIMD sort, the Rust "
-    "stable sort_by keeps the first row: detection 5 (Rust) vs 6 (reference) at frame 3",
-)
 def test_terminated_candidate_ties_are_broken_like_the_rust_twin():
-    assert_twins_agree(_tie_case(kf.BranchingTracker), _tie_case(reference.BranchingTracker))
-
-
-def test_terminated_candidate_ties_agree_with_a_stable_sort():
-    """The diagnosis of the test above: with a stable argsort the twins agree."""
-    with mock.patch.object(reference, "np", _StableSortNumpy()):
-        ref = _tie_case(reference.BranchingTracker)
+    """Equal scores (start points of an order-2 model all score ln P_d − ln(λ_s V)): both twins
+    keep the first ended sequence (a stable sort; numpy's default argsort is not stable)."""
     rust = _tie_case(kf.BranchingTracker)
-    assert_twins_agree(rust, ref)
+    assert_twins_agree(rust, _tie_case(reference.BranchingTracker))
     t = rust.tracks()
     assert t.loc[t.frame == 3, "detection"].tolist() == [5]
 
@@ -775,7 +735,6 @@ frames_strategy = st.lists(
 def test_property_random_frames_twins_agree_and_never_share(frames, config):
     arrays = [np.array(f, dtype=float).reshape(-1, 2) for f in frames]
     rust = run(kf.BranchingTracker, arrays, **config)
-    with mock.patch.object(reference, "np", _StableSortNumpy()):
-        ref = run(reference.BranchingTracker, arrays, **config)
+    ref = run(reference.BranchingTracker, arrays, **config)
     assert_twins_agree(rust, ref)
     assert_no_shared_detection(rust)

@@ -103,6 +103,7 @@ class BranchingTracker:
         n_confirm: int,
         confirm_llr: float,
         confirm_window: int,
+        delete_llr: float | None,
         max_per_tree: int,
         max_hypotheses: int,
         max_seeds: int,

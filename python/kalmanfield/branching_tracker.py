@@ -14,8 +14,8 @@ test *is* the gate. Every frame, every live sequence branches over the measureme
 gate, plus a "missed" branch while its run of misses stays ≤ ``max_misses``; measurements no
 confirmed sequence uses start new sequences (SPEC §3.3). Sequences are ranked by a
 log-likelihood-ratio score against clutter; five pruning rules keep the work per frame bounded
-(at most ``max_hypotheses`` live sequences, ``max_per_tree`` per track tree, ``max_seeds`` new
-ones per frame). The final answer takes sequences greedily in decreasing score, never two
+(at most ``max_hypotheses`` continuing sequences, ``max_per_tree`` per track tree, plus at most
+``max_seeds`` new ones per frame). The final answer takes sequences greedily in decreasing score, never two
 sharing a measurement (a later one may lose up to ``max_shared`` detections, reported as
 coasted frames).
 
@@ -111,6 +111,10 @@ class BranchingTracker:
     n_confirm, confirm_llr, confirm_window : a sequence is confirmed once it has ``n_confirm``
         measurements and score ≥ ``confirm_llr``; unconfirmed ones die ``confirm_window``
         frames after their start (default n_confirm + max_misses + 1).
+    delete_llr : sequential (SPRT-style) deletion: an unconfirmed sequence whose score falls
+        below it dies at once (default −5: about two misses without a good measurement;
+        ``None`` = the literal [K93] rule, time-out only). It halves the live sequences under
+        clutter at no measured loss (README, tracking tables).
     max_per_tree, max_hypotheses, max_seeds : hypothesis limits (per track tree, global, new
         sequences per frame).
     merge_depth : D, last measurements that identify a sequence's future (pruning).
@@ -149,6 +153,7 @@ class BranchingTracker:
         n_confirm: int = 4,
         confirm_llr: float = 0.0,
         confirm_window: int | None = None,
+        delete_llr: float | None = -5.0,
         max_per_tree: int = 8,
         max_hypotheses: int = 20_000,
         max_seeds: int = 2_000,
@@ -204,6 +209,7 @@ class BranchingTracker:
                 if confirm_window is None
                 else positive_int(confirm_window, "confirm_window")
             ),
+            delete_llr=None if delete_llr is None else _real(delete_llr, "delete_llr"),
             max_per_tree=positive_int(max_per_tree, "max_per_tree"),
             max_hypotheses=positive_int(max_hypotheses, "max_hypotheses"),
             max_seeds=positive_int(max_seeds, "max_seeds"),

@@ -72,8 +72,9 @@ def link(
         names=cols,
         **kwargs,
     )
-    out = df.copy()
-    out["particle"] = np.full(len(df), -1, np.int64)
+    out = detections.copy()
+    particle = np.full(len(df), -1, np.int64)
+    out["particle"] = particle
     if not len(df):
         return out
     order = np.argsort(frame_numbers, kind="stable")
@@ -90,7 +91,6 @@ def link(
     tracks = tracker.tracks()
     hit = tracks["detection"].to_numpy() >= 0
     # global detection ids run over the frames in order, rows within a frame in `order`
-    out.loc[order[tracks["detection"].to_numpy()[hit]], "particle"] = tracks["particle"].to_numpy()[
-        hit
-    ]
+    particle[order[tracks["detection"].to_numpy()[hit]]] = tracks["particle"].to_numpy()[hit]
+    out["particle"] = particle
     return out

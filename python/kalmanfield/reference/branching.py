@@ -31,7 +31,9 @@ plus one "missed" branch (the coasted prediction) while its current run of misse
 ≤ ``max_misses``. Sequences descending from one start form a *track tree*. The children are
 pruned, in this order:
 
-1. tentative time-out: a sequence not confirmed ``confirm_window`` frames after its start dies;
+1. tentative time-out: a sequence not confirmed ``confirm_window`` frames after its start dies,
+   and so does an unconfirmed one whose score is below ``delete_llr`` (sequential deletion, as
+   the lower threshold of Wald's test in SPRT track confirmation; ``None`` = off);
 2. merging inside a tree: children with the same last ``merge_depth`` measurements and the same
    current run of misses are the same future; only the best (highest score, below) is kept;
 3. at most ``max_per_tree`` best children per tree, plus two protected ones: the tree's best, and
@@ -43,7 +45,8 @@ pruned, in this order:
    have (the same target started later, or started on one stray point), the younger one dies;
 5. global cap ``max_hypotheses``: children of confirmed sequences first, then by score.
 
-Every rule bounds the work per frame: at most ``max_hypotheses`` live sequences, each with the
+Every rule bounds the work per frame: at most ``max_hypotheses`` continuing sequences (plus at
+most ``max_seeds`` new starts), each with the
 measurements of its gate; at extreme clutter the cap and ``max_seeds`` decide what is kept
 (confirmed sequences first), so the cost per frame stays bounded and the quality degrades.
 
@@ -366,6 +369,7 @@ class BranchingTracker:
     max_speed : maximum speed (spatial units per time) for the start points.
     n_confirm, confirm_llr, confirm_window : confirmation rule and time-out (frames) of
         tentative sequences (default n_confirm + max_misses + 1).
+    delete_llr : unconfirmed sequences with a lower score die (rule 1; None = off).
     max_per_tree, max_hypotheses, max_seeds : hypothesis limits (per tree, global, new
         sequences per frame).
     merge_depth : number of last entries that identify a sequence's future (pruning 2 and 4).
@@ -395,6 +399,7 @@ class BranchingTracker:
         n_confirm: int = 4,
         confirm_llr: float = 0.0,
         confirm_window: int | None = None,
+        delete_llr: float | None = -5.0,
         max_per_tree: int = 8,
         max_hypotheses: int = 20_000,
         max_seeds: int = 2_000,
@@ -437,6 +442,7 @@ class BranchingTracker:
         self.vmax = float(max_speed)
         self.n_confirm = int(n_confirm)
         self.confirm_llr = float(confirm_llr)
+        self.delete_llr = -np.inf if delete_llr is None else float(delete_llr)
         self.confirm_window = (
             self.n_confirm + self.max_misses + 1 if confirm_window is None else int(confirm_window)
         )
@@ -695,7 +701,7 @@ class BranchingTracker:
         term = term[h.conf[term]]
         if not len(term):
             return
-        for i in term[np.argsort(h.llr_last[term])]:
+        for i in term[np.argsort(h.llr_last[term], kind="stable")]:
             tr = h.tree[i]
             if self.tree_cand[tr] < 0 or h.llr_last[i] > self.tree_cand_llr[tr]:
                 self.tree_cand[tr] = h.node_last[i]
@@ -706,7 +712,7 @@ class BranchingTracker:
         if c.size == 0:
             return c
         # 1. tentative time-out
-        keep = c.conf | (self.frame - c.start < self.confirm_window)
+        keep = c.conf | ((self.frame - c.start < self.confirm_window) & (c.llr >= self.delete_llr))
         c = c.take(np.flatnonzero(keep))
         if c.size == 0:
             return c
@@ -1092,6 +1098,6 @@ def link(
     t = tr.tracks()
     hit = t["detection"].to_numpy() >= 0
     particle[gid_to_row[t["detection"].to_numpy()[hit]]] = t["particle"].to_numpy()[hit]
-    out = df.copy()
+    out = detections.copy()
     out["particle"] = particle
     return out

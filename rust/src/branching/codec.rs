@@ -2,7 +2,7 @@
 //! separately). Little-endian, length-prefixed arrays, a magic tag and the state widths, so a
 //! byte string from another configuration or a truncated one is an error, not a panic.
 
-use super::hypotheses::Hypotheses;
+use super::hypotheses::{Hypotheses, NONE};
 use super::tracker::{BranchingTracker, FrameStats, OnlineAnswer};
 use crate::error::{FieldError, Result};
 
@@ -274,10 +274,51 @@ impl BranchingTracker {
             && self.hi.len() == self.k()
             && self.online.position.len() == self.online.frame.len() * self.k();
         sizes
-            && self.nodes.parent.iter().all(node_ok)
+            && self.counters_consistent()
+            && self
+                .nodes
+                .parent
+                .iter()
+                .enumerate()
+                .all(|(i, p)| *p < i as i64 && node_ok(p))
             && h.node.iter().chain(&h.node_last).all(node_ok)
             && self.tree_cand.iter().all(node_ok)
             && self.finished.iter().all(|f| node_ok(&f.0))
             && h.tree.iter().all(|&t| t >= 0 && (t as usize) < trees)
+    }
+
+    /// Frame and measurement counters, ids and per-sequence counts lie in their ranges.
+    fn counters_consistent(&self) -> bool {
+        let (h, frame, n_meas) = (&self.h, self.frame, self.n_meas);
+        let meas_ok = |g: &i64| *g >= NONE && *g < n_meas;
+        let frame_ok = |f: &i64| *f >= 0 && *f <= frame;
+        let offsets = &self.frame_offsets;
+        frame >= 0
+            && n_meas >= 0
+            && self.count == n_meas
+            && offsets.len() as i64 == frame
+            && self.stats.len() as i64 == frame
+            && offsets.first().is_none_or(|&o| o == 0)
+            && offsets.windows(2).all(|w| w[0] <= w[1])
+            && offsets.last().is_none_or(|&o| o <= n_meas)
+            && self.t.is_some() == (frame > 0)
+            && self.t.is_none_or(f64::is_finite)
+            && self.compact_at > 0
+            && h.recent.iter().chain(&h.cur).all(meas_ok)
+            && self.nodes.meas.iter().all(meas_ok)
+            && self.nodes.frame.iter().all(frame_ok)
+            && h.start.iter().all(frame_ok)
+            && self.online.frame.iter().all(frame_ok)
+            && h.n_inc.iter().all(|&v| v >= 0)
+            && h.hits.iter().all(|&v| v >= 0)
+            && h.miss
+                .iter()
+                .all(|&v| v >= 0 && v <= self.cfg.max_misses as i64)
+            && h.x.iter().chain(&h.p).chain(&h.inc).all(|v| v.is_finite())
+            && h.llr
+                .iter()
+                .chain(&h.t_last)
+                .chain(&h.pos_last)
+                .all(|v| v.is_finite())
     }
 }

@@ -46,6 +46,8 @@ pub struct TrackerConfig {
     pub n_confirm: usize,
     pub confirm_llr: f64,
     pub confirm_window: usize,
+    /// Sequential deletion: an unconfirmed sequence whose score falls below it dies.
+    pub delete_llr: Option<f64>,
     pub max_per_tree: usize,
     pub max_hypotheses: usize,
     pub max_seeds: usize,
@@ -188,6 +190,11 @@ impl TrackerConfig {
         ] {
             if !v.is_finite() {
                 return Err(invalid(format!("{name} must be finite, got {v}")));
+            }
+        }
+        if let Some(v) = self.delete_llr {
+            if !v.is_finite() {
+                return Err(invalid(format!("delete_llr must be finite, got {v}")));
             }
         }
         Ok(())

@@ -88,40 +88,70 @@ impl Hypotheses {
     pub fn push_row(&mut self, other: &Hypotheses, i: usize, w: Widths) {
         self.node.push(other.node[i]);
         self.tree.push(other.tree[i]);
-        self.x
-            .extend_from_slice(&other.x[i * w.state..(i + 1) * w.state]);
-        self.p
-            .extend_from_slice(&other.p[i * w.cov..(i + 1) * w.cov]);
-        self.inc
-            .extend_from_slice(&other.inc[i * w.memory..(i + 1) * w.memory]);
+        extend_row(&mut self.x, &other.x, i, w.state);
+        extend_row(&mut self.p, &other.p, i, w.cov);
+        extend_row(&mut self.inc, &other.inc, i, w.memory);
         self.n_inc.push(other.n_inc[i]);
         self.i_tot.push(other.i_tot[i]);
         self.llr.push(other.llr[i]);
         self.hits.push(other.hits[i]);
         self.miss.push(other.miss[i]);
         self.t_last.push(other.t_last[i]);
-        self.pos_last
-            .extend_from_slice(&other.pos_last[i * w.spatial..(i + 1) * w.spatial]);
+        extend_row(&mut self.pos_last, &other.pos_last, i, w.spatial);
         self.llr_last.push(other.llr_last[i]);
         self.node_last.push(other.node_last[i]);
-        self.recent
-            .extend_from_slice(&other.recent[i * w.depth..(i + 1) * w.depth]);
+        extend_row(&mut self.recent, &other.recent, i, w.depth);
         self.cur.push(other.cur[i]);
         self.conf.push(other.conf[i]);
         self.start.push(other.start[i]);
     }
 
-    /// The rows `idx`, in that order.
-    pub fn take(&self, idx: &[usize], w: Widths) -> Hypotheses {
-        let mut out = Hypotheses::with_capacity(idx.len(), w);
-        for &i in idx {
-            out.push_row(self, i, w);
-        }
-        out
+    /// Keeps only the rows `idx` (strictly increasing), in place.
+    pub fn retain_rows(&mut self, idx: &[usize], w: Widths) {
+        keep_rows(&mut self.node, idx, 1);
+        keep_rows(&mut self.tree, idx, 1);
+        keep_rows(&mut self.x, idx, w.state);
+        keep_rows(&mut self.p, idx, w.cov);
+        keep_rows(&mut self.inc, idx, w.memory);
+        keep_rows(&mut self.n_inc, idx, 1);
+        keep_rows(&mut self.i_tot, idx, 1);
+        keep_rows(&mut self.llr, idx, 1);
+        keep_rows(&mut self.hits, idx, 1);
+        keep_rows(&mut self.miss, idx, 1);
+        keep_rows(&mut self.t_last, idx, 1);
+        keep_rows(&mut self.pos_last, idx, w.spatial);
+        keep_rows(&mut self.llr_last, idx, 1);
+        keep_rows(&mut self.node_last, idx, 1);
+        keep_rows(&mut self.recent, idx, w.depth);
+        keep_rows(&mut self.cur, idx, 1);
+        keep_rows(&mut self.conf, idx, 1);
+        keep_rows(&mut self.start, idx, 1);
     }
 
     /// Row `i` of `recent`.
     pub fn recent_row(&self, i: usize, w: Widths) -> &[i64] {
         &self.recent[i * w.depth..(i + 1) * w.depth]
     }
+}
+
+/// Appends row `i` (width `width`) of `src` to `dst`; an element loop, since rows are a few
+/// values long and a `memcpy` call per row costs more than the copy.
+#[inline(always)]
+fn extend_row<T: Copy>(dst: &mut Vec<T>, src: &[T], i: usize, width: usize) {
+    dst.reserve(width);
+    for &v in &src[i * width..(i + 1) * width] {
+        dst.push(v);
+    }
+}
+
+/// Moves rows `idx` (strictly increasing, width `width`) to the front and truncates.
+fn keep_rows<T: Copy>(v: &mut Vec<T>, idx: &[usize], width: usize) {
+    for (to, &from) in idx.iter().enumerate() {
+        if to != from {
+            for a in 0..width {
+                v[to * width + a] = v[from * width + a];
+            }
+        }
+    }
+    v.truncate(idx.len() * width);
 }

@@ -15,11 +15,11 @@ pub fn prune(tr: &mut BranchingTracker, c: Hypotheses) -> Hypotheses {
     let idx = cap_per_tree(&c, w, tr.cfg.max_per_tree, idx);
     let idx = cross_tree_duplicates(tr, &c, idx);
     let idx = global_cap(tr, &c, idx);
-    if idx.len() == c.len() {
-        c
-    } else {
-        c.take(&idx, w)
+    let mut c = c;
+    if idx.len() < c.len() {
+        c.retain_rows(&idx, w);
     }
+    c
 }
 
 /// Decreasing score, then earlier row first.
@@ -32,11 +32,13 @@ fn hash_ids(ids: impl Iterator<Item = i64>) -> u64 {
     ids.fold(0x243F_6A88_85A3_08D3, |h, v| splitmix64(h ^ v as u64))
 }
 
-/// Rule 1: a sequence not confirmed `confirm_window` frames after its start dies.
+/// Rule 1: a sequence not confirmed `confirm_window` frames after its start, or unconfirmed
+/// with a score below `delete_llr`, dies.
 fn time_out(tr: &BranchingTracker, c: &Hypotheses) -> Vec<usize> {
     let window = tr.cfg.confirm_window as i64;
+    let floor = tr.cfg.delete_llr.unwrap_or(f64::NEG_INFINITY);
     (0..c.len())
-        .filter(|&i| c.conf[i] || tr.frame - c.start[i] < window)
+        .filter(|&i| c.conf[i] || (tr.frame - c.start[i] < window && c.llr[i] >= floor))
         .collect()
 }
 

@@ -23,7 +23,7 @@ impl PyBranchingTracker {
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (order, process_std, measurement_std, n_spatial, confidence, memory,
         max_misses, dt, p_detect, clutter_density, max_speed, n_confirm, confirm_llr,
-        confirm_window, max_per_tree, max_hypotheses, max_seeds, merge_depth, maneuver_std,
+        confirm_window, delete_llr, max_per_tree, max_hypotheses, max_seeds, merge_depth, maneuver_std,
         maneuver_prob, min_hits, final_llr, max_shared, selection, seed))]
     fn new(
         order: Vec<usize>,
@@ -40,6 +40,7 @@ impl PyBranchingTracker {
         n_confirm: usize,
         confirm_llr: f64,
         confirm_window: usize,
+        delete_llr: Option<f64>,
         max_per_tree: usize,
         max_hypotheses: usize,
         max_seeds: usize,
@@ -67,6 +68,7 @@ impl PyBranchingTracker {
             n_confirm,
             confirm_llr,
             confirm_window,
+            delete_llr,
             max_per_tree,
             max_hypotheses,
             max_seeds,
