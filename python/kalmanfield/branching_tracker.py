@@ -15,8 +15,8 @@ gate, plus a "missed" branch while its run of misses stays ≤ ``max_misses``; m
 confirmed sequence uses start new sequences (SPEC §3.3). Sequences are ranked by a
 log-likelihood-ratio score against clutter; five pruning rules keep the work per frame bounded
 (at most ``max_hypotheses`` continuing sequences, ``max_per_tree`` per track tree, plus at most
-``max_seeds`` new ones per frame). The final answer takes sequences greedily in decreasing score, never two
-sharing a measurement (a later one may lose up to ``max_shared`` detections, reported as
+``max_seeds`` new ones per frame). The final answer takes sequences greedily in decreasing
+score, never two sharing a measurement (a later one may lose up to ``max_shared`` detections, reported as
 coasted frames).
 
 Degradation under heavy clutter: the caps bound memory and time per frame; when they bind,
