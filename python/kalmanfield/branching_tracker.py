@@ -16,8 +16,8 @@ confirmed sequence uses start new sequences (SPEC §3.3). Sequences are ranked b
 log-likelihood-ratio score against clutter; five pruning rules keep the work per frame bounded
 (at most ``max_hypotheses`` continuing sequences, ``max_per_tree`` per track tree, plus at most
 ``max_seeds`` new ones per frame). The final answer takes sequences greedily in decreasing
-score, never two sharing a measurement (a later one may lose up to ``max_shared`` detections, reported as
-coasted frames).
+score, never two sharing a measurement (a later one may lose up to ``max_shared`` detections,
+reported as coasted frames).
 
 Degradation under heavy clutter: the caps bound memory and time per frame; when they bind,
 confirmed sequences are kept first and the new starts are a deterministic random subset, so
