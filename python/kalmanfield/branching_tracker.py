@@ -273,7 +273,8 @@ class BranchingTracker:
             missing = [n for n in self._names if n not in measurements.columns]
             if missing:
                 raise ValueError(f"the DataFrame lacks the columns {missing}")
-            measurements = measurements[self._names].to_numpy()
+            # column by column: a DataFrame[list] selection costs more than the tracking
+            measurements = np.column_stack([measurements[n].to_numpy() for n in self._names])
         raw = np.asarray(measurements)
         if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
             raise TypeError(f"measurements must hold real numbers, got dtype {raw.dtype}")

@@ -155,4 +155,4 @@ def _table(columns: dict[str, np.ndarray], frame_no: int | None) -> pd.DataFrame
     data = {name: columns[name] for name in COLUMNS}
     if frame_no is not None:
         data = {"frame": np.full(len(columns["label"]), frame_no, dtype=np.int64), **data}
-    return pd.DataFrame(data)
+    return pd.DataFrame(data, copy=False)
