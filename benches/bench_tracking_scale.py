@@ -43,7 +43,7 @@ def run_pipeline(images, clutter_density: float, segment: bool = True, points=No
     """(tracks, segmentation CPU s, tracking CPU s, mean live sequences) of one pass."""
     tracker = kf.BranchingTracker(2, clutter_density=clutter_density, **TRACKER_CONFIG)
     t_seg = t_track = 0.0
-    for f, image in enumerate(images if segment else points):
+    for image in images if segment else points:
         t0 = time.process_time()
         xy = kf.segment(image, THRESHOLD) if segment else image
         t1 = time.process_time()

@@ -320,5 +320,6 @@ impl BranchingTracker {
                 .chain(&h.t_last)
                 .chain(&h.pos_last)
                 .all(|v| v.is_finite())
+            && h.t_last.iter().all(|&v| self.t.is_some_and(|t| v <= t))
     }
 }

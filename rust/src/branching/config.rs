@@ -76,6 +76,41 @@ fn check_positive(value: f64, name: &str) -> Result<()> {
 }
 
 impl TrackerConfig {
+    /// The defaults of the Python class for k parameters, the first min(k, 2) spatial: order 1
+    /// (nearly constant velocity), process std 0.1, measurement std 0.5, β = 0.99, N = 4, at most
+    /// 2 misses, P_d = 0.9, clutter density estimated, 4 hits to confirm, deletion below −5.
+    pub fn with_defaults(k: usize) -> TrackerConfig {
+        let (n_confirm, max_misses) = (4, 2);
+        TrackerConfig {
+            order: vec![1; k],
+            process_std: vec![0.1; k],
+            measurement_std: vec![0.5; k],
+            n_spatial: k.min(2),
+            confidence: 0.99,
+            memory: 4,
+            max_misses,
+            dt: 1.0,
+            p_detect: 0.9,
+            clutter_density: None,
+            max_speed: 6.0,
+            n_confirm,
+            confirm_llr: 0.0,
+            confirm_window: n_confirm + max_misses + 1,
+            delete_llr: Some(-5.0),
+            max_per_tree: 8,
+            max_hypotheses: 20_000,
+            max_seeds: 2_000,
+            merge_depth: 3,
+            maneuver_std: None,
+            maneuver_prob: 0.01,
+            min_hits: n_confirm,
+            final_llr: 5.0,
+            max_shared: 2,
+            selection: Selection::Llr,
+            seed: 0,
+        }
+    }
+
     /// Number of parameters k per measurement.
     pub fn k(&self) -> usize {
         self.order.len()

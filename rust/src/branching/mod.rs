@@ -14,5 +14,8 @@ pub mod pruning;
 pub mod selection;
 pub mod tracker;
 
+#[cfg(test)]
+mod tests;
+
 pub use config::{Selection, TrackerConfig};
 pub use tracker::BranchingTracker;

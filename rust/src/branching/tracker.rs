@@ -668,7 +668,7 @@ fn ball_pairs(
     for (i, &r) in radius.iter().enumerate() {
         let c = &centre[i * s..(i + 1) * s];
         let first = xs.partition_point(|&x| x < c[0] - r);
-        let last = xs.partition_point(|&x| x <= c[0] + r);
+        let last = xs.partition_point(|&x| x <= c[0] + r).max(first);
         found.clear();
         for &j in &by_x[first..last] {
             let d2: f64 = (0..s).map(|q| (z[j * k + q] - c[q]).powi(2)).sum();
