@@ -7,7 +7,7 @@ import numbers
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_int
+from ._validation import positive_int, real_array
 from .ar_field_model import ARFieldModel
 
 
@@ -35,13 +35,7 @@ def images(z: npt.ArrayLike, width: int) -> np.ndarray:
     """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
     uint8/uint16/int/float32 inputs are converted; bool and complex are refused; NaN and
     infinite pixels are refused (missing observations are not supported yet)."""
-    arr = np.asarray(z)
-    if arr.dtype == np.bool_ or np.issubdtype(arr.dtype, np.complexfloating):
-        raise TypeError(f"images must hold real numbers, got dtype {arr.dtype}")
-    try:
-        arr = np.ascontiguousarray(arr, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise TypeError(f"images must be numeric arrays: {err}") from None
+    arr = real_array(z, "images")
     if arr.ndim not in (2, 3):
         raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
     if arr.shape[-1] != width:

@@ -42,6 +42,43 @@ def positive_int(value: Any, name: str) -> int:
     return int(value)
 
 
+def nonnegative_int(value: Any, name: str) -> int:
+    """An int ≥ 0 (numpy integers accepted, bools and floats refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be a non-negative integer, got {value!r}")
+    if int(value) < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {int(value)}")
+    return int(value)
+
+
+def real_number(value: Any, name: str) -> float:
+    """A finite real number (bools refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    return float(value)
+
+
+def probability(value: Any, name: str) -> float:
+    """A real number strictly between 0 and 1."""
+    p = real_number(value, name)
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"{name} must lie strictly between 0 and 1, got {p}")
+    return p
+
+
+def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
+    """`value` as a C-contiguous float64 array; bool, complex and non-numeric input refused."""
+    raw = np.asarray(value)
+    if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
+        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    try:
+        return np.ascontiguousarray(raw, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"{name} must be numeric arrays: {err}") from None
+
+
 def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, ...]:
     """A shape of `ndim` positive ints."""
     items = (shape,) if isinstance(shape, numbers.Integral) else tuple(shape)

@@ -36,7 +36,7 @@ import pandas as pd
 
 from . import _core
 from ._row_filter import positive_float
-from ._validation import positive_int
+from ._validation import nonnegative_int, positive_int, probability, real_array, real_number
 
 __all__ = ["BranchingTracker"]
 
@@ -56,29 +56,6 @@ def _per_param(value: Any, k: int, name: str, kind: type = float) -> list:
             raise TypeError(f"{name} must hold integers, got {v!r}")
         out.append(kind(v))
     return out
-
-
-def _nonnegative_int(value: Any, name: str) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be a non-negative integer, got {value!r}")
-    if int(value) < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {int(value)}")
-    return int(value)
-
-
-def _real(value: Any, name: str) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    return float(value)
-
-
-def _probability(value: Any, name: str) -> float:
-    p = _real(value, name)
-    if not 0.0 < p < 1.0:
-        raise ValueError(f"{name} must lie strictly between 0 and 1, got {p}")
-    return p
 
 
 def _default_names(k: int, n_spatial: int) -> list[str]:
@@ -172,8 +149,8 @@ class BranchingTracker:
         if s > k:
             raise ValueError(f"n_spatial ({s}) cannot exceed n_params ({k})")
         n_confirm = positive_int(n_confirm, "n_confirm")
-        max_misses = _nonnegative_int(max_misses, "max_misses")
-        orders = [_nonnegative_int(o, "order") for o in _per_param(order, k, "order", int)]
+        max_misses = nonnegative_int(max_misses, "max_misses")
+        orders = [nonnegative_int(o, "order") for o in _per_param(order, k, "order", int)]
         if max(orders) > _core.MAX_MOTION_ORDER:
             raise ValueError(f"order must be at most {_core.MAX_MOTION_ORDER}, got {max(orders)}")
         if selection not in ("llr", "index_per_dof", "pvalue"):
@@ -183,7 +160,7 @@ class BranchingTracker:
         names = _default_names(k, s) if names is None else [str(n) for n in names]
         if len(names) != k or len(set(names)) != k:
             raise ValueError(f"names must be {k} distinct column names, got {names}")
-        seed = _nonnegative_int(seed, "seed")
+        seed = nonnegative_int(seed, "seed")
         if seed >= 1 << 64:
             raise ValueError("seed must be below 2**64")
         self._config: dict[str, Any] = dict(
@@ -191,11 +168,11 @@ class BranchingTracker:
             process_std=_per_param(process_std, k, "process_std"),
             measurement_std=_per_param(measurement_std, k, "measurement_std"),
             n_spatial=s,
-            confidence=_probability(confidence, "confidence"),
+            confidence=probability(confidence, "confidence"),
             memory=positive_int(memory, "memory"),
             max_misses=max_misses,
             dt=positive_float(dt, "dt"),
-            p_detect=_probability(p_detect, "p_detect"),
+            p_detect=probability(p_detect, "p_detect"),
             clutter_density=(
                 None
                 if clutter_density is None
@@ -203,13 +180,13 @@ class BranchingTracker:
             ),
             max_speed=positive_float(max_speed, "max_speed"),
             n_confirm=n_confirm,
-            confirm_llr=_real(confirm_llr, "confirm_llr"),
+            confirm_llr=real_number(confirm_llr, "confirm_llr"),
             confirm_window=(
                 n_confirm + max_misses + 1
                 if confirm_window is None
                 else positive_int(confirm_window, "confirm_window")
             ),
-            delete_llr=None if delete_llr is None else _real(delete_llr, "delete_llr"),
+            delete_llr=None if delete_llr is None else real_number(delete_llr, "delete_llr"),
             max_per_tree=positive_int(max_per_tree, "max_per_tree"),
             max_hypotheses=positive_int(max_hypotheses, "max_hypotheses"),
             max_seeds=positive_int(max_seeds, "max_seeds"),
@@ -217,10 +194,10 @@ class BranchingTracker:
             maneuver_std=(
                 None if maneuver_std is None else _per_param(maneuver_std, k, "maneuver_std")
             ),
-            maneuver_prob=_probability(maneuver_prob, "maneuver_prob"),
+            maneuver_prob=probability(maneuver_prob, "maneuver_prob"),
             min_hits=n_confirm if min_hits is None else positive_int(min_hits, "min_hits"),
-            final_llr=_real(final_llr, "final_llr"),
-            max_shared=_nonnegative_int(max_shared, "max_shared"),
+            final_llr=real_number(final_llr, "final_llr"),
+            max_shared=nonnegative_int(max_shared, "max_shared"),
             selection=selection,
             seed=seed,
         )
@@ -275,13 +252,7 @@ class BranchingTracker:
                 raise ValueError(f"the DataFrame lacks the columns {missing}")
             # column by column: a DataFrame[list] selection costs more than the tracking
             measurements = np.column_stack([measurements[n].to_numpy() for n in self._names])
-        raw = np.asarray(measurements)
-        if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
-            raise TypeError(f"measurements must hold real numbers, got dtype {raw.dtype}")
-        try:
-            z = np.ascontiguousarray(raw, dtype=np.float64)
-        except (TypeError, ValueError) as err:
-            raise TypeError(f"measurements must be numeric: {err}") from None
+        z = real_array(measurements, "measurements")
         if z.size == 0:
             z = np.empty((0, k))
         if z.ndim == 1 and k == 1:
@@ -291,7 +262,7 @@ class BranchingTracker:
         if not np.isfinite(z).all():
             raise ValueError("measurements must be finite (no NaN or inf); drop such rows first")
         if time is not None:
-            time = _real(time, "time")
+            time = real_number(time, "time")
         self._core.update(z, time)
 
     # ------------------------------------------------------------------ answers
