@@ -738,3 +738,13 @@ def test_property_random_frames_twins_agree_and_never_share(frames, config):
     ref = run(reference.BranchingTracker, arrays, **config)
     assert_twins_agree(rust, ref)
     assert_no_shared_detection(rust)
+
+
+def test_link_tracks_a_lone_target_from_its_first_frame():
+    """Without clutter_density, link estimates it from the whole table (not from the tiny
+    bounding box of the first frames), so a lone clean target is linked from frame 0."""
+    frames = np.arange(15)
+    det = pd.DataFrame({"frame": frames, "x": 5.0 + 1.5 * frames, "y": 5.0 + 0.5 * frames})
+    out = kf.link(det, measurement_std=0.3, process_std=0.05)
+    assert (out.particle == 0).all()
+    pd.testing.assert_frame_equal(out, reference.link(det, measurement_std=0.3, process_std=0.05))

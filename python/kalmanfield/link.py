@@ -42,6 +42,11 @@ def link(
     longest run of frames a track may coast, ``dt`` = time between consecutive frame numbers
     (frame numbers may skip: the skipped frames are empty). Other keywords go to
     :class:`BranchingTracker`; ``progress=True`` shows a tqdm bar.
+
+    Unless ``clutter_density`` is given, it is estimated once from the whole table: detections
+    per frame over the bounding box of the columns (each side at least 1), an upper bound
+    (targets included). The tracker's own running estimate would start from the tiny box of
+    the first frames and hold back the first tracks.
     """
     if not isinstance(detections, pd.DataFrame):
         raise TypeError(f"detections must be a pandas DataFrame, got {type(detections).__name__}")
@@ -60,6 +65,8 @@ def link(
     values = df[cols].to_numpy(dtype=float)
     if not np.isfinite(values).all():
         raise ValueError(f"the columns {cols} must be finite (drop NaN rows first)")
+    if kwargs.get("clutter_density") is None and len(df):
+        kwargs["clutter_density"] = table_clutter_density(values, frame_numbers)
     tracker = BranchingTracker(
         len(cols),
         process_std=process_std,
@@ -94,3 +101,12 @@ def link(
     particle[order[tracks["detection"].to_numpy()[hit]]] = tracks["particle"].to_numpy()[hit]
     out["particle"] = particle
     return out
+
+
+def table_clutter_density(values: np.ndarray, frame_numbers: np.ndarray) -> float:
+    """Detections per frame (at least 1) per unit of the bounding box of `values` (n, k)
+    (each side at least 1): the clutter density estimate of :func:`link`."""
+    n_frames = int(frame_numbers.max() - frame_numbers.min()) + 1
+    rate = max(len(values) / n_frames, 1.0)
+    spans = np.maximum(values.max(axis=0) - values.min(axis=0), 1.0)
+    return float(rate / np.prod(spans))
