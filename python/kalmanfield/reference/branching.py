@@ -456,10 +456,9 @@ class BranchingTracker:
         if selection not in ("llr", "index_per_dof", "pvalue"):
             raise ValueError("selection must be 'llr', 'index_per_dof' or 'pvalue'")
         self.selection = selection
-        if names is None:
-            names = ["x", "y", "z"][:k] if k <= 3 else [f"p{q}" for q in range(k)]
-            if k == 3 and self.s == 2:
-                names = ["x", "y", "p2"]
+        if names is None:  # spatial x, y, z (x0, x1… beyond three), then p<q>
+            spatial = ["x", "y", "z"][: self.s] if self.s <= 3 else [f"x{q}" for q in range(self.s)]
+            names = spatial + [f"p{q}" for q in range(self.s, k)]
         self.names = list(names)
         self.seed = int(seed)
         # prior variance of the derivatives of a start (diffuse: the start is least squares)

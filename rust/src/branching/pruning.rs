@@ -1,7 +1,7 @@
 //! The five pruning rules of the branching tracker (module docstring of the reference):
 //! tentative time-out, merging inside a tree, the per-tree cap with protected sequences,
 //! cross-tree duplicates, the global cap. Every rule maps a list of child rows (ascending) to
-//! the surviving ones; the children are copied once, at the end.
+//! the surviving ones; the children are compacted in place once, at the end.
 
 use super::hypotheses::{Hypotheses, Widths};
 use super::tracker::{splitmix64, BranchingTracker};
