@@ -92,12 +92,29 @@ impl SymmetricBand {
                 }
             }
         }
-        let inverse_diagonal = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
+        let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
+        // Pre-scaled coefficients of the substitutions, zero outside the matrix: row i of L
+        // (columns i − b..i) and column i below the pivot (rows i + 1..i + b), times 1/L_ii.
+        let mut forward = vec![0.0; n * b];
+        let mut backward = vec![0.0; n * b];
+        for i in 0..n {
+            for m in 0..b {
+                if i + m >= b {
+                    forward[i * b + m] = l[i * (b + 1) + m] * inverse_diagonal[i];
+                }
+                let r = i + m + 1;
+                if r < n {
+                    backward[i * b + m] = l[r * (b + 1) + b - m - 1] * inverse_diagonal[i];
+                }
+            }
+        }
         Ok(BandCholesky {
             size: n,
             bandwidth: b,
             data: l,
             inverse_diagonal,
+            forward,
+            backward,
         })
     }
 }
@@ -109,6 +126,8 @@ pub struct BandCholesky {
     bandwidth: usize,
     data: Vec<f64>,
     inverse_diagonal: Vec<f64>,
+    forward: Vec<f64>,
+    backward: Vec<f64>,
 }
 
 impl BandCholesky {
@@ -116,45 +135,64 @@ impl BandCholesky {
     pub fn solve_in_place(&self, x: &mut [f64]) {
         // fixed bandwidths unroll the inner products (the bandwidths of the row filters)
         match self.bandwidth {
-            1 => self.solve_fixed::<1>(x),
-            2 => self.solve_fixed::<2>(x),
-            3 => self.solve_fixed::<3>(x),
-            5 => self.solve_fixed::<5>(x),
-            7 => self.solve_fixed::<7>(x),
+            1 => self.solve_in_registers::<1>(x),
+            2 => self.solve_in_registers::<2>(x),
+            3 => self.solve_in_registers::<3>(x),
+            5 => self.solve_in_memory::<5>(x),
+            7 => self.solve_in_memory::<7>(x),
             _ => self.solve_dynamic(x),
         }
     }
 
-    fn solve_fixed<const B: usize>(&self, x: &mut [f64]) {
-        let (n, l, inv) = (self.size, &self.data, &self.inverse_diagonal);
-        for i in 0..B.min(n) {
-            let row = &l[i * (B + 1) + B - i..i * (B + 1) + B];
-            let sum: f64 = row.iter().zip(&x[..i]).map(|(a, v)| a * v).sum();
-            x[i] = (x[i] - sum) * inv[i];
-        }
-        for i in B..n {
-            let row: &[f64; B] = l[i * (B + 1)..i * (B + 1) + B].try_into().unwrap();
-            let past: &[f64; B] = x[i - B..i].try_into().unwrap();
-            let mut sum = 0.0;
-            for k in 0..B {
-                sum += row[k] * past[k];
+    /// Substitutions with the last B results kept in registers and the pre-scaled
+    /// coefficients, so that each step waits only on one multiply and one subtract (the
+    /// latency chain of a banded solve is its cost). For small B.
+    fn solve_in_registers<const B: usize>(&self, x: &mut [f64]) {
+        let (inv, forward, backward) = (&self.inverse_diagonal, &self.forward, &self.backward);
+        let mut window = [0.0; B]; // x[i − B..i], oldest first
+        for (i, xi) in x.iter_mut().enumerate() {
+            let coef: &[f64; B] = forward[i * B..(i + 1) * B].try_into().unwrap();
+            let mut acc = *xi * inv[i];
+            for m in 0..B {
+                acc -= coef[m] * window[m];
             }
-            x[i] = (x[i] - sum) * inv[i];
+            *xi = acc;
+            window.rotate_left(1);
+            window[B - 1] = acc;
         }
-        for i in (B..n).rev() {
-            let xi = x[i] * inv[i];
-            x[i] = xi;
-            let row: &[f64; B] = l[i * (B + 1)..i * (B + 1) + B].try_into().unwrap();
-            let past: &mut [f64; B] = (&mut x[i - B..i]).try_into().unwrap();
-            for k in 0..B {
-                past[k] -= row[k] * xi;
+        let mut window = [0.0; B]; // x[i + 1..i + 1 + B], nearest first
+        for (i, xi) in x.iter_mut().enumerate().rev() {
+            let coef: &[f64; B] = backward[i * B..(i + 1) * B].try_into().unwrap();
+            let mut acc = *xi * inv[i];
+            for m in (0..B).rev() {
+                acc -= coef[m] * window[m];
             }
+            *xi = acc;
+            window.rotate_right(1);
+            window[0] = acc;
         }
-        for i in (0..B.min(n)).rev() {
-            let xi = x[i] * inv[i];
-            x[i] = xi;
-            let row = &l[i * (B + 1) + B - i..i * (B + 1) + B];
-            x[..i].iter_mut().zip(row).for_each(|(v, a)| *v -= a * xi);
+    }
+
+    /// The same substitutions reading the last B results back from `x` (scalar stores and
+    /// loads, forwarded): for wider bands, whose windows do not fit in registers.
+    fn solve_in_memory<const B: usize>(&self, x: &mut [f64]) {
+        let (n, inv) = (self.size, &self.inverse_diagonal);
+        let (forward, backward) = (&self.forward, &self.backward);
+        for i in 0..n {
+            let coef: &[f64; B] = forward[i * B..(i + 1) * B].try_into().unwrap();
+            let mut acc = x[i] * inv[i];
+            for m in (B - i.min(B))..B {
+                acc -= coef[m] * x[i + m - B];
+            }
+            x[i] = acc;
+        }
+        for i in (0..n).rev() {
+            let coef: &[f64; B] = backward[i * B..(i + 1) * B].try_into().unwrap();
+            let mut acc = x[i] * inv[i];
+            for m in (0..B.min(n - 1 - i)).rev() {
+                acc -= coef[m] * x[i + 1 + m];
+            }
+            x[i] = acc;
         }
     }
 
@@ -168,14 +206,11 @@ impl BandCholesky {
             x[i] = (x[i] - sum) * inv[i];
         }
         for i in (0..n).rev() {
-            let xi = x[i] * inv[i];
-            x[i] = xi;
-            let first = i.saturating_sub(b);
-            let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
-            x[first..i]
-                .iter_mut()
-                .zip(row)
-                .for_each(|(v, a)| *v -= a * xi);
+            let mut acc = x[i];
+            for j in (1..=b.min(n - 1 - i)).rev() {
+                acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
+            }
+            x[i] = acc * inv[i];
         }
     }
 }
