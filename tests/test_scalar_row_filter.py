@@ -45,6 +45,20 @@ def test_rust_equals_reference(n_y, n_x, rho_y, rho_x, height, width, noise_var,
     np.testing.assert_allclose(got, want, atol=1e-8 * max(1.0, np.abs(z).max()))
 
 
+@pytest.mark.parametrize("order", [(1, 1), (1, 2)])
+@pytest.mark.parametrize("rho", [0.5, 0.97])
+@pytest.mark.parametrize("width", [64, 203])
+def test_rust_equals_reference_on_wide_rows(order, rho, width):
+    """Rows of ≥ 64 unknowns with half-bandwidth ≤ 3 are solved in interleaved segments
+    corrected by zero-input responses (banded.rs): same answer as the sequential solve."""
+    model = kf.ARFieldModel([rho, rho], list(order))
+    _, z = noisy(model, (9, width), 0.5, 3)
+    for smooth in (False, True):
+        got = kf.ScalarRowFilter(model, 0.5, width, smooth=smooth).filter(z)
+        want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, 0.5, smooth=smooth)
+        np.testing.assert_allclose(got, want, atol=1e-10 * np.abs(z).max())
+
+
 def test_order_four_agrees_to_the_conditioning_of_the_row_basis():
     model = kf.ARFieldModel([0.95, 0.9], [4, 4])
     _, z = noisy(model, (20, 16), 1.0, 1)

@@ -102,20 +102,26 @@ impl SymmetricBand {
                 if i + m >= b {
                     forward[i * b + m] = l[i * (b + 1) + m] * inverse_diagonal[i];
                 }
-                let r = i + m + 1;
+                // slot m pairs with x[i + b − m] (the oldest first, in backward order)
+                let r = i + b - m;
                 if r < n {
-                    backward[i * b + m] = l[r * (b + 1) + b - m - 1] * inverse_diagonal[i];
+                    backward[i * b + m] = l[r * (b + 1) + m] * inverse_diagonal[i];
                 }
             }
         }
-        Ok(BandCholesky {
+        let mut factor = BandCholesky {
             size: n,
             bandwidth: b,
             data: l,
             inverse_diagonal,
             forward,
             backward,
-        })
+            responses: None,
+        };
+        if b <= 3 && n >= MIN_SEGMENTED {
+            factor.responses = Some(Responses::new(&factor));
+        }
+        Ok(factor)
     }
 }
 
@@ -128,6 +134,56 @@ pub struct BandCholesky {
     inverse_diagonal: Vec<f64>,
     forward: Vec<f64>,
     backward: Vec<f64>,
+    responses: Option<Responses>,
+}
+
+/// Segments run interleaved by the segmented solves (their chains overlap in the pipeline).
+const SEGMENTS: usize = 4;
+/// Smallest order solved by segments.
+const MIN_SEGMENTED: usize = 64;
+
+/// Zero-input responses of the two substitutions on segments 1.. to a unit entry of their
+/// starting window: the corrections that turn a segment started from zeros into the exact
+/// solution (the substitutions are linear recursions).
+#[derive(Debug, Clone, PartialEq)]
+struct Responses {
+    /// Length of segments 0..SEGMENTS − 1 (the last one takes the rest).
+    span: usize,
+    /// Per direction, per segment k ≥ 1, per window slot m: the response over the segment.
+    forward: Vec<Vec<f64>>,
+    backward: Vec<Vec<f64>>,
+}
+
+impl Responses {
+    fn new(f: &BandCholesky) -> Responses {
+        let (n, b) = (f.size, f.bandwidth);
+        let span = n / SEGMENTS;
+        let run = |coef: &[f64], reverse: bool| {
+            let mut out = Vec::new();
+            for k in 1..SEGMENTS {
+                let (start, end) = (k * span, if k + 1 == SEGMENTS { n } else { (k + 1) * span });
+                for m in 0..b {
+                    let mut window = vec![0.0; b];
+                    window[m] = 1.0;
+                    let mut h = Vec::with_capacity(end - start);
+                    for p in start..end {
+                        let i = if reverse { n - 1 - p } else { p };
+                        let acc = -(0..b).fold(0.0, |acc, q| acc + coef[i * b + q] * window[q]);
+                        h.push(acc);
+                        window.rotate_left(1);
+                        window[b - 1] = acc;
+                    }
+                    out.push(h);
+                }
+            }
+            out
+        };
+        Responses {
+            span,
+            forward: run(&f.forward, false),
+            backward: run(&f.backward, true),
+        }
+    }
 }
 
 impl BandCholesky {
@@ -148,28 +204,83 @@ impl BandCholesky {
     /// coefficients, so that each step waits only on one multiply and one subtract (the
     /// latency chain of a banded solve is its cost). For small B.
     fn solve_in_registers<const B: usize>(&self, x: &mut [f64]) {
-        let (inv, forward, backward) = (&self.inverse_diagonal, &self.forward, &self.backward);
-        let mut window = [0.0; B]; // x[i − B..i], oldest first
-        for (i, xi) in x.iter_mut().enumerate() {
-            let coef: &[f64; B] = forward[i * B..(i + 1) * B].try_into().unwrap();
-            let mut acc = *xi * inv[i];
+        if let Some(r) = &self.responses {
+            self.substitute_segmented::<B, false>(x, &self.forward, &r.forward, r.span);
+            self.substitute_segmented::<B, true>(x, &self.backward, &r.backward, r.span);
+            return;
+        }
+        let n = self.size;
+        let mut window = [0.0; B];
+        self.substitute::<B, false>(x, &self.forward, 0, n, &mut window);
+        let mut window = [0.0; B];
+        self.substitute::<B, true>(x, &self.backward, 0, n, &mut window);
+    }
+
+    /// One substitution over the positions [start, end) of its order (position p is x[p],
+    /// or x[n − 1 − p] when `REV`): y_p = x_p / L_pp − Σ_m coef_p[m] y_{p−B+m}, `window`
+    /// holding y_{p−B..p} (oldest first).
+    #[inline(always)]
+    fn substitute<const B: usize, const REV: bool>(
+        &self,
+        x: &mut [f64],
+        coef: &[f64],
+        start: usize,
+        end: usize,
+        window: &mut [f64; B],
+    ) {
+        let (n, inv) = (self.size, &self.inverse_diagonal);
+        for p in start..end {
+            let i = if REV { n - 1 - p } else { p };
+            let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
+            let mut acc = x[i] * inv[i];
             for m in 0..B {
-                acc -= coef[m] * window[m];
+                acc -= c[m] * window[m];
             }
-            *xi = acc;
+            x[i] = acc;
             window.rotate_left(1);
             window[B - 1] = acc;
         }
-        let mut window = [0.0; B]; // x[i + 1..i + 1 + B], nearest first
-        for (i, xi) in x.iter_mut().enumerate().rev() {
-            let coef: &[f64; B] = backward[i * B..(i + 1) * B].try_into().unwrap();
-            let mut acc = *xi * inv[i];
-            for m in (0..B).rev() {
-                acc -= coef[m] * window[m];
+    }
+
+    /// The substitution on SEGMENTS segments at once, each started from a zero window (their
+    /// latency chains overlap), then corrected segment by segment with the zero-input
+    /// responses to the exact window left by the previous one.
+    fn substitute_segmented<const B: usize, const REV: bool>(
+        &self,
+        x: &mut [f64],
+        coef: &[f64],
+        responses: &[Vec<f64>],
+        span: usize,
+    ) {
+        let (n, inv) = (self.size, &self.inverse_diagonal);
+        let mut windows = [[0.0; B]; SEGMENTS];
+        for j in 0..span {
+            for (k, window) in windows.iter_mut().enumerate() {
+                let p = k * span + j;
+                let i = if REV { n - 1 - p } else { p };
+                let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
+                let mut acc = x[i] * inv[i];
+                for m in 0..B {
+                    acc -= c[m] * window[m];
+                }
+                x[i] = acc;
+                window.rotate_left(1);
+                window[B - 1] = acc;
             }
-            *xi = acc;
-            window.rotate_right(1);
-            window[0] = acc;
+        }
+        let last = &mut windows[SEGMENTS - 1];
+        self.substitute::<B, REV>(x, coef, SEGMENTS * span, n, last);
+        for k in 1..SEGMENTS {
+            let start = k * span;
+            let end = if k + 1 == SEGMENTS { n } else { start + span };
+            let at = |p: usize| if REV { n - 1 - p } else { p };
+            let exact: [f64; B] = std::array::from_fn(|m| x[at(start - B + m)]);
+            for (m, &w) in exact.iter().enumerate() {
+                let h = &responses[(k - 1) * B + m];
+                for (p, hp) in (start..end).zip(h) {
+                    x[at(p)] += w * hp;
+                }
+            }
         }
     }
 
@@ -189,8 +300,8 @@ impl BandCholesky {
         for i in (0..n).rev() {
             let coef: &[f64; B] = backward[i * B..(i + 1) * B].try_into().unwrap();
             let mut acc = x[i] * inv[i];
-            for m in (0..B.min(n - 1 - i)).rev() {
-                acc -= coef[m] * x[i + 1 + m];
+            for m in (i + B).saturating_sub(n - 1)..B {
+                acc -= coef[m] * x[i + B - m];
             }
             x[i] = acc;
         }
@@ -246,8 +357,11 @@ mod tests {
 
     #[test]
     fn fixed_and_dynamic_solves_agree() {
-        for b in [1usize, 2, 3, 5, 7, 9] {
-            let n = 40;
+        // n = 40: one pass; n ≥ 64 (b ≤ 3): the segmented solves, uneven last segment
+        for (b, n) in [1usize, 2, 3, 5, 7, 9]
+            .into_iter()
+            .flat_map(|b| [(b, 40usize), (b, 259), (b, 1000)])
+        {
             let mut a = SymmetricBand::zeros(n, b);
             for i in 0..n {
                 a.add(i, i, 10.0);
