@@ -202,7 +202,7 @@ def test_frame_column_and_empty_frames():
 @pytest.mark.parametrize(
     "args,kwargs,exc,match",
     [
-        ((np.zeros((2, 3, 4)), 0.0), {}, ValueError, "2-D"),
+        ((np.zeros((2, 2, 3, 4)), 0.0), {}, ValueError, "2-D"),
         ((np.zeros(5), 0.0), {}, ValueError, "2-D"),
         ((np.array([[0.0, np.nan]]), 0.0), {}, ValueError, "NaN"),
         ((np.array([[0.0, np.inf]], dtype=np.float32), 0.0), {}, ValueError, "infinite"),
@@ -240,3 +240,25 @@ def test_core_rejects_bad_arrays_without_panicking():
         _core.segment(np.zeros((3, 3)), 0.0, 0, 8)
     with pytest.raises(OverflowError):
         _core.segment(np.zeros((3, 3)), 0.0, -1, 8)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])
+def test_stack_equals_frame_by_frame(dtype):
+    """A 3-D stack is segmented in parallel over the frames; the table and label images
+    equal those of the frames one at a time, with frame = frame_no + index."""
+    rng = np.random.default_rng(7)
+    stack = (rng.random((6, 40, 30)) * 200).astype(dtype)
+    table, labels = kf.segment(stack, 150, 2, 8, labels=True, frame_no=10)
+    parts = [kf.segment(f, 150, 2, 8, labels=True, frame_no=10 + i) for i, f in enumerate(stack)]
+    expected = pd.concat([p[0] for p in parts], ignore_index=True)
+    pd.testing.assert_frame_equal(table, expected)
+    np.testing.assert_array_equal(labels, np.stack([p[1] for p in parts]))
+    assert table.frame.is_monotonic_increasing and table.frame.min() >= 10
+    assert list(kf.segment(stack, 150).columns) == ["frame", *COLUMNS]  # frame always present
+    empty, empty_labels = kf.segment(np.zeros((3, 0, 4)), 0.0, labels=True)
+    assert empty.empty and list(empty.columns) == ["frame", *COLUMNS]
+    assert empty_labels.shape == (3, 0, 4)
+    with pytest.raises(ValueError, match="3-D"):
+        _core.segment_stack(np.zeros((2, 2)), 0.0, 1, 8)
+    with pytest.raises(ValueError, match="NaN"):
+        kf.segment(np.full((2, 3, 3), np.nan), 0.0)

@@ -54,6 +54,15 @@ def segment(
     min_area: int,
     connectivity: int,
 ) -> tuple[dict[str, np.ndarray], npt.NDArray[np.int32]]: ...
+def segment_stack(
+    stack: npt.NDArray[np.uint8]
+    | npt.NDArray[np.uint16]
+    | npt.NDArray[np.float32]
+    | npt.NDArray[np.float64],
+    threshold: float,
+    min_area: int,
+    connectivity: int,
+) -> tuple[dict[str, np.ndarray], npt.NDArray[np.int32]]: ...
 
 class VectorRowFilter:
     def __init__(self, model: FieldModel, noise_var: float, width: int) -> None: ...

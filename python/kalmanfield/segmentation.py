@@ -78,7 +78,10 @@ def segment(
       image); the others are numbered consecutively in raster order of their first pixel, and
       the rows are in label order.
 
-    frame : 2-D array-like. uint8, uint16, float32 and float64 are used as they are; bool
+    frame : 2-D array-like, or a 3-D stack of frames (segmented in parallel over the frames,
+        GIL released; the table then always has the ``frame`` column: ``frame_no`` (default
+        0) plus the index in the stack). uint8, uint16, float32 and float64 are used as they
+        are; bool
         becomes uint8; other integer types (and float16, longdouble) are converted to float64
         (integers beyond 2⁵³ are rounded). Complex, object and string arrays are refused
         (TypeError); NaN or infinite pixels are refused (ValueError).
@@ -95,6 +98,8 @@ def segment(
     area = positive_int(min_area, "min_area")
     conn = _connectivity(connectivity)
     frame_no = _frame_no(frame_no)
+    if image.ndim == 3:
+        return _segment_stack(image, t, area, conn, frame_no or 0, labels)
     if image.size == 0:
         columns, label_image = _empty_columns(), np.zeros(image.shape, dtype=np.int32)
     else:
@@ -109,8 +114,10 @@ def _frame_array(frame: npt.ArrayLike) -> np.ndarray:
     kind = arr.dtype.kind
     if kind not in "biuf":
         raise TypeError(f"frame must hold real numbers, got dtype {arr.dtype}")
-    if arr.ndim != 2:
-        raise ValueError(f"frame must be 2-D, got {arr.ndim} dimensions (shape {arr.shape})")
+    if arr.ndim not in (2, 3):
+        raise ValueError(
+            f"frame must be 2-D (or a 3-D stack), got {arr.ndim} dimensions (shape {arr.shape})"
+        )
     if kind == "b":
         target = np.dtype(np.uint8)
     elif arr.dtype.newbyteorder("=") in _KERNEL_DTYPES:
@@ -118,6 +125,21 @@ def _frame_array(frame: npt.ArrayLike) -> np.ndarray:
     else:
         target = np.dtype(np.float64)
     return np.ascontiguousarray(arr, dtype=target)
+
+
+def _segment_stack(
+    stack: np.ndarray, t: float, area: int, conn: int, first: int, labels: bool
+) -> pd.DataFrame | tuple[pd.DataFrame, np.ndarray]:
+    if stack.size == 0:
+        columns = _empty_columns()
+        frames = np.zeros(0, dtype=np.int64)
+        label_image = np.zeros(stack.shape, dtype=np.int32)
+    else:
+        columns, label_image = _core.segment_stack(stack, t, area, conn)
+        frames = columns["frame"]
+    data = {"frame": frames + first, **{name: columns[name] for name in COLUMNS}}
+    table = pd.DataFrame(data, copy=False)
+    return (table, label_image) if labels else table
 
 
 def _threshold(value: object) -> float:

@@ -16,6 +16,7 @@
 //! small against the segment's size, while this costs a few percent of the scan.
 
 use crate::error::{FieldError, Result};
+use rayon::prelude::*;
 
 /// A pixel type of a frame: converted exactly to f64.
 pub trait Pixel: Copy + Into<f64> + Send + Sync {
@@ -110,6 +111,20 @@ pub fn segment<T: Pixel>(
     connectivity: u8,
 ) -> Result<Segmentation> {
     validate(frame, height, width, threshold, min_area, connectivity)?;
+    let mut labels = vec![0; frame.len()];
+    let segments = segment_into(frame, &mut labels, width, threshold, min_area, connectivity)?;
+    Ok(Segmentation { labels, segments })
+}
+
+/// `segment` of a validated frame, writing the label image into `labels` (zeros on entry).
+fn segment_into<T: Pixel>(
+    frame: &[T],
+    labels: &mut [i32],
+    width: usize,
+    threshold: f64,
+    min_area: usize,
+    connectivity: u8,
+) -> Result<Vec<Segment>> {
     let reach = usize::from(connectivity == 8);
     let (runs, mut parent) = scan_runs(frame, width, threshold, reach);
     flatten(&mut parent);
@@ -122,8 +137,51 @@ pub fn segment<T: Pixel>(
         labels: &labels_of_segment,
     };
     let segments = finish_segments(&scan, frame, width, threshold);
-    let labels = label_image(&scan, height, width);
-    Ok(Segmentation { labels, segments })
+    label_image(&scan, width, labels);
+    Ok(segments)
+}
+
+/// Segments every frame of a stack (frames × height × width, row-major) in parallel over the
+/// frames (rayon); the result is the same whatever the number of threads.
+pub fn segment_stack<T: Pixel>(
+    stack: &[T],
+    frames: usize,
+    height: usize,
+    width: usize,
+    threshold: f64,
+    min_area: usize,
+    connectivity: u8,
+) -> Result<StackSegmentation> {
+    let size = height.saturating_mul(width);
+    if frames.checked_mul(size) != Some(stack.len()) {
+        return Err(FieldError::Shape(format!(
+            "stack has {} values, expected {frames} × {height} × {width}",
+            stack.len()
+        )));
+    }
+    let mut labels = vec![0; stack.len()];
+    if size == 0 {
+        validate(stack, height, width, threshold, min_area, connectivity)?;
+        let segments = vec![Vec::new(); frames];
+        return Ok(StackSegmentation { labels, segments });
+    }
+    stack
+        .par_chunks(size)
+        .try_for_each(|frame| validate(frame, height, width, threshold, min_area, connectivity))?;
+    let segments = stack
+        .par_chunks(size)
+        .zip(labels.par_chunks_mut(size))
+        .map(|(frame, out)| segment_into(frame, out, width, threshold, min_area, connectivity))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(StackSegmentation { labels, segments })
+}
+
+/// The segmentation of a stack: the label images (frames × height × width) and the segments
+/// of each frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackSegmentation {
+    pub labels: Vec<i32>,
+    pub segments: Vec<Vec<Segment>>,
 }
 
 fn validate<T: Pixel>(
@@ -411,14 +469,12 @@ fn finish_segments<T: Pixel>(
         .collect()
 }
 
-/// The label image (height × width): each run's pixels get its segment's label, others 0.
-fn label_image(scan: &Scan<'_>, height: usize, width: usize) -> Vec<i32> {
-    let mut image = vec![0; height * width];
+/// The label image (zeros on entry): each run's pixels get its segment's label.
+fn label_image(scan: &Scan<'_>, width: usize, image: &mut [i32]) {
     for (run, &s) in scan.runs.iter().zip(scan.segment_of_run) {
         let start = run.row * width;
         image[start + run.x0..=start + run.x1].fill(scan.labels[s]);
     }
-    image
 }
 
 #[cfg(test)]
@@ -590,5 +646,17 @@ mod tests {
             Err(FieldError::NonFinite(_))
         ));
         assert!(segment(&[0u8], usize::MAX, 2, 1.0, 1, 8).is_err());
+    }
+
+    #[test]
+    fn a_stack_is_segmented_frame_by_frame() {
+        let frames: Vec<f64> = (0..5 * 12 * 9).map(|v| ((v * 7919) % 97) as f64).collect();
+        let stack = segment_stack(&frames, 5, 12, 9, 60.0, 1, 8).unwrap();
+        for (f, s) in stack.segments.iter().enumerate() {
+            let one = segment(&frames[f * 108..(f + 1) * 108], 12, 9, 60.0, 1, 8).unwrap();
+            assert_eq!(stack.labels[f * 108..(f + 1) * 108], one.labels);
+            assert_eq!(*s, one.segments);
+        }
+        assert!(segment_stack(&frames, 4, 12, 9, 60.0, 1, 8).is_err());
     }
 }

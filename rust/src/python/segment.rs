@@ -1,9 +1,12 @@
-//! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment`.
+//! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment` and `segment_stack`.
 
-use crate::segment::{segment as segment_kernel, Pixel, Segment, Segmentation};
+use crate::segment::{
+    segment as segment_kernel, segment_stack as stack_kernel, Pixel, Segment, Segmentation,
+    StackSegmentation,
+};
 use numpy::{
-    Element, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArray,
-    PyUntypedArrayMethods,
+    Element, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3,
+    PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -11,7 +14,8 @@ use pyo3::types::PyDict;
 
 /// Adds `segment` to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(segment, m)?)
+    m.add_function(wrap_pyfunction!(segment, m)?)?;
+    m.add_function(wrap_pyfunction!(segment_stack, m)?)
 }
 
 /// (columns of the segment table, label image) of a thresholded frame.
@@ -74,11 +78,73 @@ fn kernel<T: Pixel + Element>(
     Ok(py.detach(|| segment_kernel(values, h, w, threshold, min_area, connectivity))?)
 }
 
+/// (columns of the stack's segment table with a `frame` column, label images).
+type StackArrays<'py> = (Bound<'py, PyDict>, Bound<'py, PyArray3<i32>>);
+
+/// Segments every frame of a 3-D C-contiguous stack (frames × height × width), in parallel
+/// over the frames with the GIL released; the table has a leading `frame` column (0-based
+/// index in the stack), rows in frame then label order.
+#[pyfunction]
+fn segment_stack<'py>(
+    py: Python<'py>,
+    stack: &Bound<'py, PyAny>,
+    threshold: f64,
+    min_area: usize,
+    connectivity: u8,
+) -> PyResult<StackArrays<'py>> {
+    let array = stack
+        .cast::<PyUntypedArray>()
+        .map_err(|_| PyTypeError::new_err("stack must be a numpy array"))?;
+    let shape = match array.shape() {
+        &[f, h, w] => [f, h, w],
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "stack must be 3-D, got {} dimensions",
+                other.len()
+            )))
+        }
+    };
+    let into_arrays = |s: StackSegmentation| -> PyResult<StackArrays<'py>> {
+        let frame_of: Vec<i64> = s
+            .segments
+            .iter()
+            .enumerate()
+            .flat_map(|(f, frame)| std::iter::repeat_n(f as i64, frame.len()))
+            .collect();
+        let segments: Vec<&Segment> = s.segments.iter().flatten().collect();
+        let dict = table(py, &segments)?;
+        dict.set_item("frame", PyArray1::from_vec(py, frame_of))?;
+        Ok((dict, PyArray1::from_vec(py, s.labels).reshape(shape)?))
+    };
+    macro_rules! try_dtype {
+        ($($t:ty),*) => {$(
+            if let Ok(a) = stack.extract::<PyReadonlyArray3<$t>>() {
+                let values = a
+                    .as_slice()
+                    .map_err(|_| PyValueError::new_err("stack must be C-contiguous"))?;
+                let [f, h, w] = shape;
+                let frames = py.detach(|| {
+                    stack_kernel(values, f, h, w, threshold, min_area, connectivity)
+                })?;
+                return into_arrays(frames);
+            }
+        )*};
+    }
+    try_dtype!(u8, u16, f32, f64);
+    Err(PyTypeError::new_err(format!(
+        "stack dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
+        array.dtype()
+    )))
+}
+
 /// A column name and how to read it off a segment.
 type Column<T> = (&'static str, fn(&Segment) -> T);
 
 /// The segment table as a dict of 1-D arrays.
-fn table<'py>(py: Python<'py>, segments: &[Segment]) -> PyResult<Bound<'py, PyDict>> {
+fn table<'py, S: std::borrow::Borrow<Segment>>(
+    py: Python<'py>,
+    segments: &[S],
+) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
     let ints: [Column<usize>; 6] = [
         ("label", |s| s.label),
@@ -96,11 +162,11 @@ fn table<'py>(py: Python<'py>, segments: &[Segment]) -> PyResult<Bound<'py, PyDi
         ("extent_y", |s| s.extent_y),
     ];
     for (name, get) in ints {
-        let column: Vec<i64> = segments.iter().map(|s| get(s) as i64).collect();
+        let column: Vec<i64> = segments.iter().map(|s| get(s.borrow()) as i64).collect();
         dict.set_item(name, PyArray1::from_vec(py, column))?;
     }
     for (name, get) in floats {
-        let column: Vec<f64> = segments.iter().map(get).collect();
+        let column: Vec<f64> = segments.iter().map(|s| get(s.borrow())).collect();
         dict.set_item(name, PyArray1::from_vec(py, column))?;
     }
     Ok(dict)
