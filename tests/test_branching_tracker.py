@@ -748,3 +748,9 @@ def test_link_tracks_a_lone_target_from_its_first_frame():
     out = kf.link(det, measurement_std=0.3, process_std=0.05)
     assert (out.particle == 0).all()
     pd.testing.assert_frame_equal(out, reference.link(det, measurement_std=0.3, process_std=0.05))
+
+
+def test_link_refuses_an_absurd_frame_range():
+    det = pd.DataFrame({"frame": [0, 10**12], "x": [1.0, 2.0], "y": [1.0, 2.0]})
+    with pytest.raises(ValueError, match="renumber"):
+        kf.link(det, measurement_std=0.5, process_std=0.1)

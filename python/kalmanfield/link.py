@@ -15,6 +15,11 @@ from .branching_tracker import BranchingTracker
 __all__ = ["link"]
 
 
+#: frames a table may skip in total beyond 100 per detection (guards against a frame range
+#: that would run for hours on empty frames, e.g. timestamps passed as frame numbers)
+MAX_EMPTY_FRAMES = 1_000_000
+
+
 def link(
     detections: pd.DataFrame,
     *,
@@ -62,6 +67,12 @@ def link(
     ):
         raise ValueError("the frame column must hold integer frame numbers")
     frame_numbers = frame_numbers.astype(np.int64)
+    span = int(frame_numbers.max() - frame_numbers.min()) + 1 if len(df) else 0
+    if span > MAX_EMPTY_FRAMES + 100 * len(df):
+        raise ValueError(
+            f"the frame numbers span {span} frames for {len(df)} detections (every frame in "
+            "between is processed, empty ones too); renumber the frames"
+        )
     values = df[cols].to_numpy(dtype=float)
     if not np.isfinite(values).all():
         raise ValueError(f"the columns {cols} must be finite (drop NaN rows first)")
