@@ -420,8 +420,8 @@ CORRUPT_N_MEAS = textwrap.dedent(
         tracker.update(np.array([[1.0 + t, 2.0 + t], [20.0 + t, 20.0 + t]]))
     state = tracker.__getstate__()
     raw = bytearray(state["state"])
-    # the block of scalars: length 5, then frame = 3, n_meas = 6, count = 6, compact_at, has_t
-    head = struct.pack("<4q", 5, 3, 6, 6)
+    # the block of scalars: length 4, then frame = 3, n_meas = 6, compact_at, has_t
+    head = struct.pack("<3q", 4, 3, 6)
     at = raw.find(head)
     assert at > 0 and raw.find(head, at + 1) < 0
     struct.pack_into("<q", raw, at + 16, 1 << 40)  # n_meas = 2**40

@@ -45,20 +45,22 @@ def lag_products(
 def whiten_axis_into(data: npt.NDArray[np.float64], axis: int, rho: float, order: int) -> None: ...
 def chi2_sf(x: float, dof: float) -> float: ...
 def chi2_quantile(p: float, dof: float) -> float: ...
-def segment(
-    frame: npt.NDArray[np.uint8]
+
+_Pixels = (
+    npt.NDArray[np.uint8]
     | npt.NDArray[np.uint16]
     | npt.NDArray[np.float32]
-    | npt.NDArray[np.float64],
+    | npt.NDArray[np.float64]
+)
+
+def segment(
+    frame: _Pixels,
     threshold: float,
     min_area: int,
     connectivity: int,
 ) -> tuple[dict[str, np.ndarray], npt.NDArray[np.int32]]: ...
 def segment_stack(
-    stack: npt.NDArray[np.uint8]
-    | npt.NDArray[np.uint16]
-    | npt.NDArray[np.float32]
-    | npt.NDArray[np.float64],
+    stack: _Pixels,
     threshold: float,
     min_area: int,
     connectivity: int,

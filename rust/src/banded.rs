@@ -228,18 +228,23 @@ impl BandCholesky {
         end: usize,
         window: &mut [f64; B],
     ) {
-        let (n, inv) = (self.size, &self.inverse_diagonal);
+        let n = self.size;
         for p in start..end {
-            let i = if REV { n - 1 - p } else { p };
-            let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
-            let mut acc = x[i] * inv[i];
-            for m in 0..B {
-                acc -= c[m] * window[m];
-            }
-            x[i] = acc;
-            window.rotate_left(1);
-            window[B - 1] = acc;
+            self.step(x, coef, if REV { n - 1 - p } else { p }, window);
         }
+    }
+
+    /// x_i ← x_i / L_ii − Σ_m coef_i[m] window[m], then pushed into `window`.
+    #[inline(always)]
+    fn step<const B: usize>(&self, x: &mut [f64], coef: &[f64], i: usize, window: &mut [f64; B]) {
+        let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
+        let mut acc = x[i] * self.inverse_diagonal[i];
+        for m in 0..B {
+            acc -= c[m] * window[m];
+        }
+        x[i] = acc;
+        window.rotate_left(1);
+        window[B - 1] = acc;
     }
 
     /// The substitution on SEGMENTS segments at once, each started from a zero window (their
@@ -252,20 +257,12 @@ impl BandCholesky {
         responses: &[Vec<f64>],
         span: usize,
     ) {
-        let (n, inv) = (self.size, &self.inverse_diagonal);
+        let n = self.size;
         let mut windows = [[0.0; B]; SEGMENTS];
         for j in 0..span {
             for (k, window) in windows.iter_mut().enumerate() {
                 let p = k * span + j;
-                let i = if REV { n - 1 - p } else { p };
-                let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
-                let mut acc = x[i] * inv[i];
-                for m in 0..B {
-                    acc -= c[m] * window[m];
-                }
-                x[i] = acc;
-                window.rotate_left(1);
-                window[B - 1] = acc;
+                self.step(x, coef, if REV { n - 1 - p } else { p }, window);
             }
         }
         let last = &mut windows[SEGMENTS - 1];

@@ -473,7 +473,6 @@ class BranchingTracker:
         self._meas: list[np.ndarray] = []
         self._lo = np.full(k, np.inf)
         self._hi = np.full(k, -np.inf)
-        self._count = 0
         self.tree_conf = np.zeros(0, bool)
         self.tree_cand = np.zeros(0, np.int64)  # best terminated confirmed node per tree
         self.tree_cand_llr = np.zeros(0)
@@ -508,14 +507,15 @@ class BranchingTracker:
             start=zi,
         )
 
-    def _density(self) -> tuple[float, float]:
-        """(λ, λ_s): clutter density in parameter space and in the spatial sub-space."""
+    def _density(self, measured: int) -> tuple[float, float]:
+        """(λ, λ_s): clutter density in parameter space and in the spatial sub-space;
+        ``measured`` = all measurements so far, this frame's included."""
         if self.lam is not None:
             span = np.maximum(self._hi - self._lo, 1e-9)
             extra = float(np.prod(span[self.s :])) if self.k > self.s else 1.0
             return self.lam, self.lam * extra
         span = np.maximum(self._hi - self._lo, 1.0)
-        rate = max(self._count / max(self.frame + 1, 1), 1.0)
+        rate = max(measured / max(self.frame + 1, 1), 1.0)
         return rate / float(np.prod(span)), rate / float(np.prod(span[: self.s]))
 
     def _state_flat(self, X: list) -> np.ndarray:
@@ -537,7 +537,6 @@ class BranchingTracker:
         if M:
             self._lo = np.minimum(self._lo, Z.min(0))
             self._hi = np.maximum(self._hi, Z.max(0))
-            self._count += M
         h = self.h
         H = h.size
         st = {"frame": self.frame, "measurements": M, "live_before": H}
@@ -581,7 +580,7 @@ class BranchingTracker:
     def _branch(self, h: _Hyps, Z: np.ndarray, tau: float, t: float, gid0: int):
         """Predict, gate and branch every live sequence (SPEC §3.1, §3.2, §3.3 step 2)."""
         k, s, H = self.k, self.s, h.size
-        lam, lam_s = self._density()
+        lam, lam_s = self._density(gid0 + len(Z))
         Xp, Pp, S, Pm, Sm = [], [], np.empty((H, k)), [], np.empty((H, k))
         for q in range(k):
             F, Q = motion_matrices(self.order[q], tau, self.sigma_w[q])

@@ -125,7 +125,6 @@ impl BranchingTracker {
         w.i64s(&[
             self.frame,
             self.n_meas,
-            self.count,
             self.compact_at as i64,
             i64::from(self.t.is_some()),
         ]);
@@ -197,14 +196,13 @@ impl BranchingTracker {
         t.h = h;
         let scalars = r.i64s()?;
         let time = r.f64s()?;
-        if scalars.len() != 5 || time.len() != 1 {
+        if scalars.len() != 4 || time.len() != 1 {
             return Err(corrupt());
         }
         t.frame = scalars[0];
         t.n_meas = scalars[1];
-        t.count = scalars[2];
-        t.compact_at = scalars[3] as usize;
-        t.t = (scalars[4] != 0).then_some(time[0]);
+        t.compact_at = scalars[2] as usize;
+        t.t = (scalars[3] != 0).then_some(time[0]);
         t.frame_offsets = r.i64s()?;
         t.lo = r.f64s()?;
         t.hi = r.f64s()?;
@@ -295,12 +293,18 @@ impl BranchingTracker {
         let offsets = &self.frame_offsets;
         frame >= 0
             && n_meas >= 0
-            && self.count == n_meas
             && offsets.len() as i64 == frame
             && self.stats.len() as i64 == frame
             && offsets.first().is_none_or(|&o| o == 0)
-            && offsets.windows(2).all(|w| w[0] <= w[1])
-            && offsets.last().is_none_or(|&o| o <= n_meas)
+            && offsets
+                .windows(2)
+                .zip(&self.stats)
+                .all(|(w, s)| w[1] == w[0] + s.measurements as i64)
+            && n_meas
+                == offsets
+                    .last()
+                    .zip(self.stats.last())
+                    .map_or(0, |(&o, s)| o + s.measurements as i64)
             && self.t.is_some() == (frame > 0)
             && self.t.is_none_or(f64::is_finite)
             && self.compact_at > 0

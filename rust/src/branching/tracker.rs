@@ -50,7 +50,6 @@ pub struct BranchingTracker {
     pub frame_offsets: Vec<i64>,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
-    pub(crate) count: i64,
     pub(crate) tree_conf: Vec<bool>,
     pub(crate) tree_cand: Vec<i64>,
     pub(crate) tree_cand_llr: Vec<f64>,
@@ -117,7 +116,6 @@ impl BranchingTracker {
             frame_offsets: Vec::new(),
             lo: vec![f64::INFINITY; k],
             hi: vec![f64::NEG_INFINITY; k],
-            count: 0,
             tree_conf: Vec::new(),
             tree_cand: Vec::new(),
             tree_cand_llr: Vec::new(),
@@ -182,7 +180,6 @@ impl BranchingTracker {
                 *hi = hi.max(v);
             }
         }
-        self.count += m as i64;
         let input = FrameInput { z, t, gid0 };
         let mut stats = FrameStats {
             measurements: m,
@@ -216,8 +213,9 @@ impl BranchingTracker {
         Ok(())
     }
 
-    /// (λ, λ_s): clutter density in parameter space and in the spatial sub-space.
-    fn density(&self) -> (f64, f64) {
+    /// (λ, λ_s): clutter density in parameter space and in the spatial sub-space;
+    /// `measured` = all measurements so far, this frame's included.
+    fn density(&self, measured: i64) -> (f64, f64) {
         let s = self.cfg.n_spatial;
         let k = self.k();
         if let Some(lam) = self.cfg.clutter_density {
@@ -227,7 +225,7 @@ impl BranchingTracker {
             return (lam, lam * extra);
         }
         let span: Vec<f64> = (0..k).map(|q| (self.hi[q] - self.lo[q]).max(1.0)).collect();
-        let rate = (self.count as f64 / (self.frame + 1).max(1) as f64).max(1.0);
+        let rate = (measured as f64 / (self.frame + 1).max(1) as f64).max(1.0);
         let all: f64 = span.iter().product();
         let spatial: f64 = span[..s].iter().product();
         (rate / all, rate / spatial)
@@ -288,7 +286,7 @@ impl BranchingTracker {
     fn branch(&self, h: &Hypotheses, input: &FrameInput, tau: f64) -> (Hypotheses, Vec<usize>) {
         let (k, s, w, n) = (self.k(), self.cfg.n_spatial, self.w, h.len());
         let cfg = &self.cfg;
-        let (lam, lam_s) = self.density();
+        let (lam, lam_s) = self.density(input.gid0 + (input.z.len() / k) as i64);
         let pr = self.predict_all(h, tau, input.t);
         let nu_max = cfg.nu_max() as i64;
         let r_max = (0..s)
