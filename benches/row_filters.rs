@@ -30,12 +30,12 @@ fn bench_scalar(c: &mut Criterion) {
         let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
         let z = image(&model, side);
         let mut out = vec![0.0; z.len()];
-        let filter = ScalarRowFilter::new(&model, 1.0, side, None).unwrap();
-        filter.filter_image(&z, &mut out, side, false).unwrap(); // builds the plan
+        let filter = ScalarRowFilter::new(&model, 1.0, side, None, false).unwrap();
+        filter.filter_image(&z, None, &mut out, side, false).unwrap(); // builds the plan
         for smooth in [false, true] {
             let id = format!("({order},{order}) smooth={smooth}");
             group.bench_with_input(BenchmarkId::from_parameter(id), &smooth, |b, &s| {
-                b.iter(|| one_thread(|| filter.filter_image(&z, &mut out, side, s).unwrap()))
+                b.iter(|| one_thread(|| filter.filter_image(&z, None, &mut out, side, s).unwrap()))
             });
         }
     }

@@ -17,6 +17,7 @@ pub mod field_model;
 pub mod lag_products;
 pub mod noise;
 pub mod product_field;
+pub mod row_modes;
 pub mod scalar_row_filter;
 pub mod segment;
 pub mod stationary_start;

@@ -431,15 +431,18 @@ pub struct PyScalarRowFilter {
 #[pymethods]
 impl PyScalarRowFilter {
     #[new]
-    #[pyo3(signature = (model, noise_var, width, ar_order=None))]
+    #[pyo3(signature = (model, noise_var, width, ar_order=None, toeplitz=false))]
     fn new(
         py: Python<'_>,
         model: &PyFieldModel,
         noise_var: f64,
         width: usize,
         ar_order: Option<usize>,
+        toeplitz: bool,
     ) -> PyResult<Self> {
-        let inner = py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order))?;
+        let inner = py.detach(|| {
+            ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, toeplitz)
+        })?;
         Ok(Self { inner })
     }
 
@@ -448,8 +451,9 @@ impl PyScalarRowFilter {
         self.inner.bandwidth()
     }
 
-    /// Filters z (height × width, or frames × height × width) into `out` (same shape).
-    #[pyo3(signature = (z, out, smooth, threads=None))]
+    /// Filters z (height × width, or frames × height × width) into `out` (same shape);
+    /// `weights`: per-pixel 1/σ_θ² of z's shape (0 = missing pixel).
+    #[pyo3(signature = (z, out, smooth, threads=None, weights=None))]
     fn filter_into(
         &self,
         py: Python<'_>,
@@ -457,15 +461,25 @@ impl PyScalarRowFilter {
         out: PyReadwriteArrayDyn<'_, f64>,
         smooth: bool,
         threads: Option<usize>,
+        weights: Option<PyReadonlyArrayDyn<'_, f64>>,
     ) -> PyResult<()> {
+        if let Some(w) = &weights {
+            if w.shape() != z.shape() {
+                return Err(PyValueError::new_err("weights must have the shape of z"));
+            }
+        }
+        let weights = weights
+            .as_ref()
+            .map(|w| contiguous(w, "weights"))
+            .transpose()?;
         let filter = &self.inner;
         filter_array(
             py,
             z,
             out,
             threads,
-            |z, out, h| filter.filter_image(z, out, h, smooth),
-            |z, out, f, h| filter.filter_stack(z, out, f, h, smooth),
+            |z, out, h| filter.filter_image(z, weights, out, h, smooth),
+            |z, out, f, h| filter.filter_stack(z, weights, out, f, h, smooth),
         )
     }
 }

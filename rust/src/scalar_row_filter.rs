@@ -15,13 +15,20 @@
 //! `vector_row_filter`) until its band changes by < 1e-3, then frozen. The start (rows 1..n)
 //! is the information form with the exact stationary prior. The RTS pass over the rows uses
 //! P_k ≈ A_k⁻¹, P_e,k+1⁻¹ ≈ Λ_{k+1}.
+//! The band of P_e comes from the modes of `row_modes` (exact eigenbasis, or the Toeplitz
+//! modes of the infinite row: no O(W³) step).
+//! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted
+//! variant refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row (the model Λ_k stays the one fitted
+//! for the nominal noise variance).
 
 use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
-use crate::vector_row_filter::{check_images, Small, VectorRowFilter, MAX_ROW_ORDER};
-use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, Par};
+use crate::row_modes::RowModes;
+use crate::vector_row_filter::{
+    check_images, ModeCovariance, RowDynamics, Small, MAX_ROW_ORDER,
+};
+use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use std::sync::{Arc, Mutex};
@@ -32,7 +39,9 @@ const SETTLE_TOLERANCE: f64 = 1e-3;
 /// The quasi-optimal filter for one model, noise variance, width and AR order m.
 #[derive(Debug)]
 pub struct ScalarRowFilter {
-    optimal: VectorRowFilter,
+    dynamics: RowDynamics,
+    modes: RowModes,
+    mode_var: Vec<f64>,
     order: usize,
     ar_order: usize,
     noise_var: f64,
@@ -64,15 +73,24 @@ impl Plan {
 }
 
 impl ScalarRowFilter {
-    /// The filter of a 2-axis `model`; `ar_order` = m (None: n_x + 1).
+    /// The filter of a 2-axis `model`; `ar_order` = m (None: n_x + 1); `toeplitz`: the band
+    /// of P_e from the Toeplitz modes of the infinite row instead of the exact eigenbasis.
     pub fn new(
         model: &FieldModel,
         noise_var: f64,
         width: usize,
         ar_order: Option<usize>,
+        toeplitz: bool,
     ) -> Result<Self> {
-        let optimal = VectorRowFilter::new(model, noise_var, width)?;
         let (y, x) = crate::vector_row_filter::row_axes(model)?;
+        if !(noise_var.is_finite() && noise_var > 0.0) {
+            return Err(FieldError::InvalidParameter(format!(
+                "noise_var must be positive and finite, got {noise_var}"
+            )));
+        }
+        if width == 0 {
+            return Err(FieldError::Shape("width must be positive".into()));
+        }
         let ar_order = ar_order.unwrap_or(x.order() + 1);
         if ar_order == 0 || ar_order > 8 {
             return Err(FieldError::InvalidParameter(format!(
@@ -104,8 +122,16 @@ impl ScalarRowFilter {
             companion[(i, i - 1)] = 1.0;
         }
         let transition = whitening * companion * lower;
+        let modes = if toeplitz {
+            RowModes::toeplitz(x, width)
+        } else {
+            RowModes::exact(x, width)?
+        };
+        let signal = model.sigma() * model.sigma();
         Ok(Self {
-            optimal,
+            dynamics: RowDynamics::new(y),
+            mode_var: modes.values().iter().map(|l| signal * l).collect(),
+            modes,
             order: n,
             ar_order,
             noise_var,
@@ -118,7 +144,7 @@ impl ScalarRowFilter {
 
     /// Row width W.
     pub fn width(&self) -> usize {
-        self.optimal.width()
+        self.modes.width()
     }
 
     /// Half-bandwidth b = n(m+1) − 1 of the row systems.
@@ -138,20 +164,9 @@ impl ScalarRowFilter {
         Ok(plan)
     }
 
-    /// Band blocks C_d[ℓ] = Σ_j U[ℓ,j] U[ℓ+d,j] M_j (n×n, row-major in a (W−d)×n² matrix).
+    /// Band blocks C_d[ℓ] of Σ_j u_j u_jᵀ ⊗ M_j, d = 0..=m (see `RowModes::band`).
     fn band(&self, modal: &[Small]) -> Vec<Mat<f64>> {
-        let (w, n) = (self.width(), self.order);
-        let u = &self.optimal.modes().vectors;
-        let flat = Mat::from_fn(w, n * n, |j, ab| modal[j][(ab / n, ab % n)]);
-        (0..=self.ar_order.min(w - 1))
-            .map(|d| {
-                let pairs = Mat::from_fn(w - d, w, |l, j| u[(l, j)] * u[(l + d, j)]);
-                let mut out = Mat::<f64>::zeros(w - d, n * n);
-                matmul(&mut out, Accum::Replace, &pairs, &flat, 1.0, Par::Seq);
-                crate::vector_state::clear_upper_state();
-                out
-            })
-            .collect()
+        self.modes.band(modal, self.order, self.ar_order)
     }
 
     fn block(&self, band: &[Mat<f64>], i: usize, j: usize) -> DMatrix<f64> {
@@ -217,26 +232,29 @@ impl ScalarRowFilter {
 
     /// A = Λ + I_W ⊗ h hᵀ/σ_θ² for each observed row h in `observed`.
     fn system(&self, precision: &SymmetricBand, observed: &[usize]) -> Result<BandCholesky> {
-        let (w, n) = (self.width(), self.order);
         let mut a = precision.clone();
         for &index in observed {
-            let h = self.lower.row(index);
-            for ell in 0..w {
-                for r in 0..n {
-                    for c in 0..=r {
-                        a.add(ell * n + r, ell * n + c, h[r] * h[c] / self.noise_var);
-                    }
-                }
-            }
+            self.add_observation(&mut a, index, |_| 1.0 / self.noise_var);
         }
         a.cholesky()
     }
 
-    fn whitened(
-        &self,
-        modal: &[crate::vector_row_filter::ModeCovariance],
-        var: &[f64],
-    ) -> Vec<Small> {
+    /// a += Σ_ℓ weight(ℓ) h hᵀ on the block of column ℓ, h = row `index` of L (the observed
+    /// row of the state in the whitened basis).
+    fn add_observation(&self, a: &mut SymmetricBand, index: usize, weight: impl Fn(usize) -> f64) {
+        let n = self.order;
+        let h = self.lower.row(index);
+        for ell in 0..self.width() {
+            let r_ell = weight(ell);
+            for r in 0..n {
+                for c in 0..=r {
+                    a.add(ell * n + r, ell * n + c, h[r] * h[c] * r_ell);
+                }
+            }
+        }
+    }
+
+    fn whitened(&self, modal: &[ModeCovariance], var: &[f64]) -> Vec<Small> {
         modal
             .iter()
             .zip(var)
@@ -248,8 +266,8 @@ impl ScalarRowFilter {
     }
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
-        let (w, n) = (self.width(), self.order);
-        let var = self.optimal.mode_variances();
+        let n = self.order;
+        let var = &self.mode_var;
         let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
         let mut plan = Plan {
             rows: 0,
@@ -259,13 +277,13 @@ impl ScalarRowFilter {
             row_precision: Vec::new(),
             row_factor: Vec::new(),
         };
-        let mut current: Vec<crate::vector_row_filter::ModeCovariance> = Vec::new();
+        let mut current: Vec<ModeCovariance> = Vec::new();
         let mut previous_band: Option<Vec<Mat<f64>>> = None;
         for t in 1..=height {
-            current = (0..w)
+            current = (0..var.len())
                 .map(|j| {
                     let prev = current.get(j).map_or(Small::zeros(), |c| c.filtered);
-                    self.optimal.riccati_step(t, &prev, ratios[j])
+                    self.dynamics.riccati_step(t, &prev, ratios[j])
                 })
                 .collect();
             if t <= n {
@@ -306,40 +324,71 @@ impl ScalarRowFilter {
     }
 
     /// Filters one image (row-major height × width) into `out`; `smooth` adds the RTS pass.
+    /// `weights`: per-pixel 1/σ_θ² (0 = missing pixel, whose value is ignored), same layout as
+    /// `z`; None = the filter's own noise variance everywhere.
     pub fn filter_image(
         &self,
         z: &[f64],
+        weights: Option<&[f64]>,
         out: &mut [f64],
         height: usize,
         smooth: bool,
     ) -> Result<()> {
-        check_images(z, out, height * self.width())?;
+        self.check(z, weights, out, height * self.width())?;
         if height == 0 {
             return Ok(());
         }
         let plan = self.plan(height)?;
-        self.run(&plan, z, out, height, smooth);
-        Ok(())
+        self.run(&plan, z, weights, out, height, smooth)
     }
 
-    /// Filters `frames` images in parallel.
+    /// Filters `frames` images in parallel (`weights` as in `filter_image`, one map per frame).
     pub fn filter_stack(
         &self,
         z: &[f64],
+        weights: Option<&[f64]>,
         out: &mut [f64],
         frames: usize,
         height: usize,
         smooth: bool,
     ) -> Result<()> {
         let size = height * self.width();
-        check_images(z, out, frames * size)?;
+        self.check(z, weights, out, frames * size)?;
         if size == 0 {
             return Ok(());
         }
         let plan = self.plan(height)?;
         out.par_chunks_mut(size)
             .zip(z.par_chunks(size))
-            .for_each(|(o, f)| self.run(&plan, f, o, height, smooth));
+            .enumerate()
+            .try_for_each(|(k, (o, f))| {
+                let frame_weights = weights.map(|w| &w[k * size..(k + 1) * size]);
+                self.run(&plan, f, frame_weights, o, height, smooth)
+            })
+    }
+
+    /// Sizes, finite pixels; with weights: finite weights ≥ 0, finite pixels where > 0.
+    fn check(&self, z: &[f64], weights: Option<&[f64]>, out: &[f64], expected: usize) -> Result<()> {
+        let Some(weights) = weights else {
+            return check_images(z, out, expected);
+        };
+        if z.len() != expected || out.len() != expected || weights.len() != expected {
+            return Err(FieldError::Shape(format!(
+                "the images and weights must hold {expected} values, got {} and {}",
+                z.len(),
+                weights.len()
+            )));
+        }
+        if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+            return Err(FieldError::InvalidParameter(
+                "the pixel weights (1/noise variance) must be finite and ≥ 0".into(),
+            ));
+        }
+        if z.iter().zip(weights).any(|(v, w)| *w > 0.0 && !v.is_finite()) {
+            return Err(FieldError::NonFinite(
+                "a pixel with a finite noise variance is NaN or infinite".into(),
+            ));
+        }
         Ok(())
     }
 
@@ -372,38 +421,87 @@ impl ScalarRowFilter {
         }
     }
 
-    fn run(&self, plan: &Plan, z: &[f64], out: &mut [f64], height: usize, smooth: bool) {
+    /// A_t of a weighted row: the start rows accumulate their observations in `start`.
+    fn weighted_system(
+        &self,
+        plan: &Plan,
+        t: usize,
+        weights: &[f64],
+        start: &mut Option<SymmetricBand>,
+    ) -> SymmetricBand {
+        let n = self.order;
+        if t > n {
+            let mut a = plan.precision(t).clone();
+            self.add_observation(&mut a, 0, |ell| weights[ell]);
+            return a;
+        }
+        let a = start.get_or_insert_with(|| plan.precision(1).clone());
+        self.add_observation(a, n - t, |ell| weights[ell]);
+        a.clone()
+    }
+
+    fn run(
+        &self,
+        plan: &Plan,
+        z: &[f64],
+        weights: Option<&[f64]>,
+        out: &mut [f64],
+        height: usize,
+        smooth: bool,
+    ) -> Result<()> {
         crate::vector_state::clear_upper_state();
         let (w, n) = (self.width(), self.order);
         let size = w * n;
         let mut state = vec![0.0; size];
         let mut info = vec![0.0; size];
         let mut gain_in = vec![0.0; size];
-        let precision = 1.0 / self.noise_var;
         let mut filtered = if smooth {
             vec![0.0; height * size]
         } else {
             Vec::new()
         };
+        // weighted rows: A_t per row (kept for the RTS pass) and the start's running sum
+        let mut systems: Vec<SymmetricBand> = Vec::new();
+        let mut start = None;
         let observed = |t: usize| n.saturating_sub(t);
         for t in 1..=height {
             let row = &z[(t - 1) * w..t * w];
+            let row_weights = weights.map(|r| &r[(t - 1) * w..t * w]);
+            let weight = |ell: usize| row_weights.map_or(1.0 / self.noise_var, |r| r[ell]);
+            let own;
+            let factor = match row_weights {
+                None => plan.factor(t),
+                Some(r) => {
+                    let system = self.weighted_system(plan, t, r, &mut start);
+                    own = system.cholesky()?;
+                    if smooth {
+                        systems.push(system);
+                    }
+                    &own
+                }
+            };
             if t <= n {
                 let h = self.lower.row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
-                    for a in 0..n {
-                        info[ell * n + a] += h[a] * zl / self.noise_var;
+                    let r_ell = weight(ell);
+                    if r_ell > 0.0 {
+                        for a in 0..n {
+                            info[ell * n + a] += h[a] * zl * r_ell;
+                        }
                     }
                 }
                 state.copy_from_slice(&info);
-                plan.factor(t).solve_in_place(&mut state);
+                factor.solve_in_place(&mut state);
             } else {
                 self.apply_transition(&mut state, false);
                 gain_in.fill(0.0);
                 for (ell, zl) in row.iter().enumerate() {
-                    gain_in[ell * n] = (zl - state[ell * n]) * precision;
+                    let r_ell = weight(ell);
+                    if r_ell > 0.0 {
+                        gain_in[ell * n] = (zl - state[ell * n]) * r_ell;
+                    }
                 }
-                plan.factor(t).solve_in_place(&mut gain_in);
+                factor.solve_in_place(&mut gain_in);
                 state.iter_mut().zip(&gain_in).for_each(|(s, g)| *s += g);
             }
             self.readout(&state, observed(t), &mut out[(t - 1) * w..t * w]);
@@ -412,7 +510,7 @@ impl ScalarRowFilter {
             }
         }
         if !smooth {
-            return;
+            return Ok(());
         }
         let first = n.min(height);
         let mut smoothed = state;
@@ -428,7 +526,11 @@ impl ScalarRowFilter {
                 .for_each(|(p, s)| *p = s - *p);
             plan.precision(t + 1).mul_vec(&predicted, &mut d);
             self.apply_transition(&mut d, true);
-            plan.factor(t).solve_in_place(&mut d);
+            if weights.is_some() {
+                systems[t - 1].cholesky()?.solve_in_place(&mut d);
+            } else {
+                plan.factor(t).solve_in_place(&mut d);
+            }
             smoothed
                 .iter_mut()
                 .zip(filt.iter().zip(&d))
@@ -438,6 +540,7 @@ impl ScalarRowFilter {
         for t in 1..first {
             self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
         }
+        Ok(())
     }
 }
 

@@ -31,13 +31,21 @@ pub type Small = Matrix4<f64>;
 /// The optimal filter for one model, noise variance and row width.
 #[derive(Debug, Clone)]
 pub struct VectorRowFilter {
-    order: usize,
-    transition: Small,
-    innovation: f64,
-    prior: Small,
+    dynamics: RowDynamics,
     noise_var: f64,
     modes: AxisModes,
     mode_var: Vec<f64>,
+}
+
+/// The row-state dynamics of one mode, in units of its variance (SPEC §2.2): companion
+/// transition of the row axis, innovation variance β̃_y², the exact stationary prior
+/// R_y[:n,:n] of the first n rows. Shared by both row filters.
+#[derive(Debug, Clone)]
+pub(crate) struct RowDynamics {
+    pub(crate) order: usize,
+    pub(crate) transition: Small,
+    pub(crate) innovation: f64,
+    pub(crate) prior: Small,
 }
 
 /// Per step t (row t+1) and mode j: the gain K (n) and the smoother gain J_t (n×n, linking
@@ -67,28 +75,11 @@ impl VectorRowFilter {
         if width == 0 {
             return Err(FieldError::Shape("width must be positive".into()));
         }
-        let order = y.order();
-        let mut transition = Small::zeros();
-        for (i, a) in y.ar_coefficients().iter().enumerate() {
-            transition[(0, i)] = *a;
-        }
-        for i in 1..order {
-            transition[(i, i - 1)] = 1.0;
-        }
-        let mut prior = Small::zeros();
-        for i in 0..order {
-            for k in 0..order {
-                prior[(i, k)] = y.correlation(i.abs_diff(k) as f64);
-            }
-        }
         let modes = AxisModes::new(x, width)?;
         let signal = model.sigma() * model.sigma();
         let mode_var = modes.values.iter().map(|l| signal * l).collect();
         Ok(Self {
-            order,
-            transition,
-            innovation: y.beta_tilde_sq(),
-            prior,
+            dynamics: RowDynamics::new(y),
             noise_var,
             modes,
             mode_var,
@@ -110,47 +101,22 @@ impl VectorRowFilter {
         &self.mode_var
     }
 
-    /// Index of the state component that row t (1-based) observes.
-    fn observed(&self, t: usize) -> usize {
-        self.order.saturating_sub(t)
-    }
-
-    /// One Riccati step of mode j in units of its variance v_j (so every mode is O(1)).
-    pub(crate) fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
-        let predicted = if t == 1 {
-            self.prior
-        } else if t <= self.order {
-            *previous
-        } else {
-            let mut p = self.transition * previous * self.transition.transpose();
-            p[(0, 0)] += self.innovation;
-            p
-        };
-        let h = self.observed(t);
-        let gain = predicted.column(h) / (predicted[(h, h)] + ratio);
-        let filtered = predicted - gain * predicted.row(h);
-        ModeCovariance {
-            predicted,
-            filtered,
-        }
-    }
-
     fn gain(&self, cov: &ModeCovariance, t: usize, ratio: f64) -> [f64; MAX_ROW_ORDER] {
-        let h = self.observed(t);
+        let h = self.dynamics.observed(t);
         let s = cov.predicted[(h, h)] + ratio;
         std::array::from_fn(|i| cov.predicted[(i, h)] / s)
     }
 
     /// J_t = P_t F_{t+1}ᵀ P_e,t+1⁻¹ (identity inside the static start).
     fn smoother(&self, t: usize, filtered: &Small, next_predicted: &Small) -> Small {
-        if t < self.order {
+        if t < self.dynamics.order {
             return Small::identity();
         }
         let mut padded = *next_predicted;
-        for i in self.order..MAX_ROW_ORDER {
+        for i in self.dynamics.order..MAX_ROW_ORDER {
             padded[(i, i)] = 1.0;
         }
-        let rhs = self.transition * filtered; // F P; Jᵀ = P_e⁻¹ F P
+        let rhs = self.dynamics.transition * filtered; // F P; Jᵀ = P_e⁻¹ F P
         match padded.cholesky() {
             Some(ch) => ch.solve(&rhs).transpose(),
             None => Small::zeros(),
@@ -169,8 +135,8 @@ impl VectorRowFilter {
         for t in 1..=height {
             let next: Vec<ModeCovariance> = (0..w)
                 .map(|j| {
-                    let prev = current.get(j).map_or(self.prior, |c| c.filtered);
-                    self.riccati_step(t, &prev, ratios[j])
+                    let prev = current.get(j).map_or(self.dynamics.prior, |c| c.filtered);
+                    self.dynamics.riccati_step(t, &prev, ratios[j])
                 })
                 .collect();
             if t > 1 {
@@ -179,7 +145,7 @@ impl VectorRowFilter {
                 );
             }
             let new_gains: Vec<_> = (0..w).map(|j| self.gain(&next[j], t, ratios[j])).collect();
-            settled = t > self.order + 2 && {
+            settled = t > self.dynamics.order + 2 && {
                 let old = &gains[gains.len() - w..];
                 let old_j = &smoothers[smoothers.len() - 2 * w..smoothers.len() - w];
                 let new_j = &smoothers[smoothers.len() - w..];
@@ -292,14 +258,14 @@ impl VectorRowFilter {
     /// Kalman filter (+ RTS) of mode j over the rows; the column is replaced by the estimates.
     fn filter_mode(&self, schedule: &Schedule, j: usize, column: &mut [f64], smooth: bool) {
         crate::vector_state::clear_upper_state();
-        let (n, w, height) = (self.order, self.width(), column.len());
+        let (n, w, height) = (self.dynamics.order, self.width(), column.len());
         let step = |t: usize| (t.min(schedule.steps) - 1) * w + j;
         let mut filtered = vec![[0.0f64; MAX_ROW_ORDER]; if smooth { height } else { 1 }];
         let mut predicted = vec![[0.0f64; MAX_ROW_ORDER]; if smooth { height } else { 1 }];
         let mut state = [0.0f64; MAX_ROW_ORDER];
         for t in 1..=height {
             let prediction = if t <= n { state } else { self.predict(&state) };
-            let h = self.observed(t);
+            let h = self.dynamics.observed(t);
             let innovation = column[t - 1] - prediction[h];
             let gain = &schedule.gains[step(t)];
             state = std::array::from_fn(|i| prediction[i] + gain[i] * innovation);
@@ -318,16 +284,16 @@ impl VectorRowFilter {
                 smoothed = std::array::from_fn(|i| {
                     filtered[t - 1][i] + (0..n).map(|k| jt[(i, k)] * diff[k]).sum::<f64>()
                 });
-                column[t - 1] = smoothed[self.observed(t)];
+                column[t - 1] = smoothed[self.dynamics.observed(t)];
             }
         }
     }
 
     #[inline(always)]
     fn predict(&self, state: &[f64; MAX_ROW_ORDER]) -> [f64; MAX_ROW_ORDER] {
-        let n = self.order;
+        let n = self.dynamics.order;
         let mut next = [0.0; MAX_ROW_ORDER];
-        next[0] = (0..n).map(|i| self.transition[(0, i)] * state[i]).sum();
+        next[0] = (0..n).map(|i| self.dynamics.transition[(0, i)] * state[i]).sum();
         next[1..n].copy_from_slice(&state[..n - 1]);
         next
     }
@@ -369,14 +335,14 @@ impl VectorRowFilter {
         let height = column.len();
         let mut history: Vec<ModeCovariance> = Vec::with_capacity(height);
         for t in 1..=height {
-            let prev = history.last().map_or(self.prior, |c| c.filtered);
-            history.push(self.riccati_step(t, &prev, ratio));
+            let prev = history.last().map_or(self.dynamics.prior, |c| c.filtered);
+            history.push(self.dynamics.riccati_step(t, &prev, ratio));
         }
         let mut smoothed = history[height - 1].filtered;
-        column[height - 1] = smoothed[(self.observed(height), self.observed(height))];
+        column[height - 1] = smoothed[(self.dynamics.observed(height), self.dynamics.observed(height))];
         for t in 1..height {
             let c = &history[t - 1];
-            let h = self.observed(t);
+            let h = self.dynamics.observed(t);
             column[t - 1] = c.filtered[(h, h)];
         }
         if smooth {
@@ -384,11 +350,62 @@ impl VectorRowFilter {
                 let jt = self.smoother(t, &history[t - 1].filtered, &history[t].predicted);
                 smoothed = history[t - 1].filtered
                     + jt * (smoothed - history[t].predicted) * jt.transpose();
-                let h = self.observed(t);
+                let h = self.dynamics.observed(t);
                 column[t - 1] = smoothed[(h, h)];
             }
         }
         column.iter_mut().for_each(|v| *v *= self.mode_var[j]);
+    }
+}
+
+impl RowDynamics {
+    /// The dynamics of the row axis `y`.
+    pub(crate) fn new(y: &AxisModel) -> Self {
+        let order = y.order();
+        let mut transition = Small::zeros();
+        for (i, a) in y.ar_coefficients().iter().enumerate() {
+            transition[(0, i)] = *a;
+        }
+        for i in 1..order {
+            transition[(i, i - 1)] = 1.0;
+        }
+        let mut prior = Small::zeros();
+        for i in 0..order {
+            for k in 0..order {
+                prior[(i, k)] = y.correlation(i.abs_diff(k) as f64);
+            }
+        }
+        Self {
+            order,
+            transition,
+            innovation: y.beta_tilde_sq(),
+            prior,
+        }
+    }
+
+    /// Index of the state component that row t (1-based) observes.
+    pub(crate) fn observed(&self, t: usize) -> usize {
+        self.order.saturating_sub(t)
+    }
+
+    /// One Riccati step of mode j in units of its variance v_j (so every mode is O(1)).
+    pub(crate) fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
+        let predicted = if t == 1 {
+            self.prior
+        } else if t <= self.order {
+            *previous
+        } else {
+            let mut p = self.transition * previous * self.transition.transpose();
+            p[(0, 0)] += self.innovation;
+            p
+        };
+        let h = self.observed(t);
+        let gain = predicted.column(h) / (predicted[(h, h)] + ratio);
+        let filtered = predicted - gain * predicted.row(h);
+        ModeCovariance {
+            predicted,
+            filtered,
+        }
     }
 }
 
