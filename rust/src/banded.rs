@@ -121,7 +121,7 @@ impl SymmetricBand {
         };
         if FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED {
             factor.segmented = Some(Segmented {
-                span: n / LANES,
+                span: segment_span(n, b),
                 forward: Direction::new(&factor, &factor.forward, false),
                 backward: Direction::new(&factor, &factor.backward, true),
             });
@@ -204,7 +204,8 @@ const LANES: usize = 8;
 type Lanes = [f64; LANES];
 /// Smallest order solved by segments.
 const MIN_SEGMENTED: usize = 16 * LANES;
-/// The bandwidths with unrolled kernels (those of the row filters).
+/// The bandwidths with unrolled kernels (those of the row filters; at most 7, see
+/// [`BandCholesky::substitute_segmented`]).
 const FIXED_BANDS: [usize; 5] = [1, 2, 3, 5, 7];
 /// Zero-input responses are cut once the recursion's state has decayed below this fraction
 /// of its peak: what is dropped lies far below the rounding of the corrections.
@@ -238,7 +239,7 @@ struct Direction {
 impl Direction {
     fn new(f: &BandCholesky, coef: &[f64], reverse: bool) -> Direction {
         let (n, b) = (f.size, f.bandwidth);
-        let span = n / LANES;
+        let span = segment_span(n, b);
         let at = |p: usize| if reverse { n - 1 - p } else { p };
         let mut steps = Vec::with_capacity(span * (b + 1));
         for j in 0..span {
@@ -264,6 +265,12 @@ impl Direction {
             ends,
         }
     }
+}
+
+/// Segment length: a multiple of b (the main loop takes b steps at a time, see
+/// [`BandCholesky::substitute_segmented`]).
+fn segment_span(n: usize, b: usize) -> usize {
+    n / LANES / b * b
 }
 
 /// The substitution's output at `positions` for a zero right-hand side, started from a
@@ -384,16 +391,24 @@ impl BandCholesky {
     ) {
         let n = self.size;
         let at = |p: usize| if REV { n - 1 - p } else { p };
+        assert!(LANES * span <= n && n == x.len() && direction.steps.len() == span * (B + 1));
+        // a ring of windows, B steps per iteration: slot (r + m) % B holds the result m − B
+        // steps back at step r, constant indices once unrolled, so the windows stay in
+        // registers (shifting them, or indexing them at run time, goes through memory)
         let mut windows = [[0.0; LANES]; B];
-        for (j, c) in direction.steps.chunks_exact(B + 1).enumerate() {
-            let v: Lanes = std::array::from_fn(|k| x[at(k * span + j)]);
-            let y = lane_step::<A, B>(v, c, &windows);
-            windows.rotate_left(1);
-            windows[B - 1] = y;
-            for (k, &yk) in y.iter().enumerate() {
-                x[at(k * span + j)] = yk;
+        for (t, group) in direction.steps.chunks_exact(B * (B + 1)).enumerate() {
+            // written out (not a loop): LLVM does not unroll the wider bands' groups itself
+            macro_rules! ring_steps {
+                ($($r:literal)*) => {$(
+                    if $r < B {
+                        let j = t * B + $r;
+                        lane_step_in_place::<A, B, REV>(x, span, j, group, &mut windows, $r);
+                    }
+                )*};
             }
+            ring_steps!(0 1 2 3 4 5 6);
         }
+        // span is a multiple of B: the ring is back in order, oldest first
         // segment 0 started from the exact (zero) window
         let mut entering = [0.0; B];
         for k in 1..LANES {
@@ -414,19 +429,50 @@ impl BandCholesky {
 }
 
 /// One step of the LANES segments: `c` holds 1/L_ii and the coefficients (see
-/// [`Direction::steps`]), `windows[m]` the results m − B steps back.
+/// [`Direction::steps`]), `windows[(r + m) % B]` the results B − m steps back.
 #[inline(always)]
-fn lane_step<A: Arith, const B: usize>(v: Lanes, c: &[Lanes], windows: &[Lanes; B]) -> Lanes {
+fn lane_step<A: Arith, const B: usize>(
+    v: Lanes,
+    c: &[Lanes],
+    windows: &[Lanes; B],
+    r: usize,
+) -> Lanes {
     let mut acc = [0.0; LANES];
     for k in 0..LANES {
         acc[k] = v[k] * c[0][k];
     }
+    // the newest result last: it alone is on the latency chain
     for m in 0..B {
+        let w = &windows[(r + m) % B];
         for k in 0..LANES {
-            acc[k] = A::sub_product(acc[k], c[1 + m][k], windows[m][k]);
+            acc[k] = A::sub_product(acc[k], c[1 + m][k], w[k]);
         }
     }
     acc
+}
+
+/// Step j of the LANES segments on x (see [`lane_step`]); r = j mod B; `group` holds
+/// the coefficients of the B steps from j − r.
+#[inline(always)]
+fn lane_step_in_place<A: Arith, const B: usize, const REV: bool>(
+    x: &mut [f64],
+    span: usize,
+    j: usize,
+    group: &[Lanes],
+    windows: &mut [Lanes; B],
+    r: usize,
+) {
+    let n = x.len();
+    let at = |p: usize| if REV { n - 1 - p } else { p };
+    // SAFETY (both blocks): k < LANES and j < span, so k · span + j < LANES · span ≤ n
+    // (asserted by the caller) and at() maps [0, n) onto itself; unchecked because the
+    // 2 · LANES bounds checks per step cost more than the arithmetic.
+    let v: Lanes = std::array::from_fn(|k| unsafe { *x.get_unchecked(at(k * span + j)) });
+    let y = lane_step::<A, B>(v, &group[r * (B + 1)..(r + 1) * (B + 1)], windows, r);
+    windows[r] = y;
+    for (k, &yk) in y.iter().enumerate() {
+        unsafe { *x.get_unchecked_mut(at(k * span + j)) = yk };
+    }
 }
 
 /// The exact window at the end of segment k: its zero-start one (`windows`, lane k) plus
@@ -539,6 +585,34 @@ mod tests {
             a.mul_vec(&x, &mut back);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-13));
             assert!(back.iter().zip(&rhs).all(|(p, q)| (p - q).abs() < 1e-12));
+        }
+    }
+
+    /// A nearly singular matrix: slowly decaying responses, not cut within a segment.
+    fn slow_matrix(n: usize, b: usize) -> SymmetricBand {
+        let mut a = SymmetricBand::zeros(n, b);
+        for i in 0..n {
+            a.add(i, i, 2.5);
+            for k in i.saturating_sub(b)..i {
+                a.add(i, k, -0.8 / ((i - k) * (i - k)) as f64);
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn slowly_decaying_solves_agree() {
+        for (b, n) in test_cases() {
+            let a = slow_matrix(n, b);
+            let ch = a.cholesky().unwrap();
+            let rhs: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
+            let (mut x, mut y, mut z) = (rhs.clone(), rhs.clone(), rhs.clone());
+            ch.solve_in_place(&mut x);
+            ch.solve_dynamic(&mut y);
+            ch.solve_with::<Plain>(&mut z);
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
+            assert!(z.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
         }
     }
 
