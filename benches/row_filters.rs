@@ -2,6 +2,7 @@
 //! the optimal one on 512², one thread, plans built outside the timing.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kalmanfield::banded::SymmetricBand;
 use kalmanfield::cascade::sample_into;
 use kalmanfield::scalar_row_filter::ScalarRowFilter;
 use kalmanfield::vector_row_filter::VectorRowFilter;
@@ -63,5 +64,32 @@ fn bench_vector(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_scalar, bench_vector);
+/// The banded solve alone (the kernel of the scalar row filter), on the orders and
+/// bandwidths of its (1,1) and (2,2) models, with a slowly decaying factor.
+fn bench_banded(c: &mut Criterion) {
+    let mut group = c.benchmark_group("banded_solve");
+    group.sample_size(20);
+    for (b, n) in [(2usize, 2048usize), (7, 4096)] {
+        let mut a = SymmetricBand::zeros(n, b);
+        for i in 0..n {
+            a.add(i, i, 2.5);
+            for k in i.saturating_sub(b)..i {
+                a.add(i, k, -0.8 / ((i - k) * (i - k)) as f64);
+            }
+        }
+        let factor = a.cholesky().unwrap();
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+        let mut x = rhs.clone();
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(format!("b={b} n={n}"), |bench| {
+            bench.iter(|| {
+                x.copy_from_slice(&rhs);
+                factor.solve_in_place(&mut x)
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_scalar, bench_vector, bench_banded);
 criterion_main!(benches);

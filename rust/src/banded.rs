@@ -116,10 +116,15 @@ impl SymmetricBand {
             inverse_diagonal,
             forward,
             backward,
-            responses: None,
+            segmented: None,
+            fused: fused_available(),
         };
-        if b <= 3 && n >= MIN_SEGMENTED {
-            factor.responses = Some(Responses::new(&factor));
+        if FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED {
+            factor.segmented = Some(Segmented {
+                span: segment_span(n, b),
+                forward: Direction::new(&factor, &factor.forward, false),
+                backward: Direction::new(&factor, &factor.backward, true),
+            });
         }
         Ok(factor)
     }
@@ -134,93 +139,224 @@ pub struct BandCholesky {
     inverse_diagonal: Vec<f64>,
     forward: Vec<f64>,
     backward: Vec<f64>,
-    responses: Option<Responses>,
+    segmented: Option<Segmented>,
+    /// The CPU has FMA and AVX2: the solves run the fused-multiply-add build of the kernels
+    /// (one rounding and one latency per step instead of two). Decided once per process, so
+    /// that every thread produces the same bits.
+    fused: bool,
 }
 
-/// Segments run interleaved by the segmented solves (their chains overlap in the pipeline).
-const SEGMENTS: usize = 4;
+/// Whether the fused build of the solve kernels can run on this CPU.
+fn fused_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// The arithmetic of the solve kernels. The crate is built for baseline x86-64, where
+/// `mul_add` would be a slow library call and Rust never contracts `a * b + c` by itself,
+/// so the kernels are generic over it and instantiated fused only under `target_feature`.
+trait Arith {
+    /// c − a·b.
+    fn sub_product(c: f64, a: f64, b: f64) -> f64;
+    /// c + a·b.
+    fn add_product(c: f64, a: f64, b: f64) -> f64;
+}
+
+/// Separate multiply and add (portable).
+struct Plain;
+
+/// Fused multiply-add: only instantiated inside [`BandCholesky::solve_fused`].
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+struct Fused;
+
+impl Arith for Plain {
+    #[inline(always)]
+    fn sub_product(c: f64, a: f64, b: f64) -> f64 {
+        c - a * b
+    }
+    #[inline(always)]
+    fn add_product(c: f64, a: f64, b: f64) -> f64 {
+        c + a * b
+    }
+}
+
+impl Arith for Fused {
+    #[inline(always)]
+    fn sub_product(c: f64, a: f64, b: f64) -> f64 {
+        (-a).mul_add(b, c)
+    }
+    #[inline(always)]
+    fn add_product(c: f64, a: f64, b: f64) -> f64 {
+        a.mul_add(b, c)
+    }
+}
+
+/// Segments solved at once by the segmented solves: their latency chains overlap, and one
+/// step of all of them is a few vector operations.
+const LANES: usize = 8;
+/// One value per segment.
+type Lanes = [f64; LANES];
 /// Smallest order solved by segments.
-const MIN_SEGMENTED: usize = 64;
+const MIN_SEGMENTED: usize = 16 * LANES;
+/// The bandwidths with unrolled kernels (those of the row filters; at most 7, see
+/// [`BandCholesky::substitute_segmented`]).
+const FIXED_BANDS: [usize; 5] = [1, 2, 3, 5, 7];
+/// Zero-input responses are cut once the recursion's state has decayed below this fraction
+/// of its peak: what is dropped lies far below the rounding of the corrections.
+const NEGLIGIBLE: f64 = 1e-20;
 
-/// Zero-input responses of the two substitutions on segments 1.. to a unit entry of their
-/// starting window: the corrections that turn a segment started from zeros into the exact
-/// solution (the substitutions are linear recursions).
+/// The substitutions of a segmented solve: run on LANES segments at once, each started from
+/// a zero window, then corrected with the zero-input responses to the exact window left by
+/// the previous segment (the substitutions are linear recursions). The remainder of the
+/// order (< LANES positions) follows the last segment.
 #[derive(Debug, Clone, PartialEq)]
-struct Responses {
-    /// Length of segments 0..SEGMENTS − 1 (the last one takes the rest).
+struct Segmented {
+    /// Segment length.
     span: usize,
-    /// Per direction, per segment k ≥ 1, per window slot m: the response over the segment.
-    forward: Vec<Vec<f64>>,
-    backward: Vec<Vec<f64>>,
+    forward: Direction,
+    backward: Direction,
 }
 
-impl Responses {
-    fn new(f: &BandCholesky) -> Responses {
+/// One substitution of a [`Segmented`] solve, in its own order of positions.
+#[derive(Debug, Clone, PartialEq)]
+struct Direction {
+    /// Per step j: 1/L_ii, then the B coefficients, each for the LANES segments (position
+    /// k · span + j for segment k), so that a step reads contiguous vectors.
+    steps: Vec<Lanes>,
+    /// Per segment k ≥ 1 and window slot q: the response over the segment to a unit entry
+    /// in slot q of its starting window, cut where it has decayed.
+    responses: Vec<Vec<f64>>,
+    /// Per segment k ≥ 1, slot q and slot m: the response's window at the segment's end.
+    ends: Vec<f64>,
+}
+
+impl Direction {
+    fn new(f: &BandCholesky, coef: &[f64], reverse: bool) -> Direction {
         let (n, b) = (f.size, f.bandwidth);
-        let span = n / SEGMENTS;
-        let run = |coef: &[f64], reverse: bool| {
-            let mut out = Vec::new();
-            for k in 1..SEGMENTS {
-                let (start, end) = (k * span, if k + 1 == SEGMENTS { n } else { (k + 1) * span });
-                for m in 0..b {
-                    let mut window = vec![0.0; b];
-                    window[m] = 1.0;
-                    let mut h = Vec::with_capacity(end - start);
-                    for p in start..end {
-                        let i = if reverse { n - 1 - p } else { p };
-                        let acc = -(0..b).fold(0.0, |acc, q| acc + coef[i * b + q] * window[q]);
-                        h.push(acc);
-                        window.rotate_left(1);
-                        window[b - 1] = acc;
-                    }
-                    out.push(h);
-                }
+        let span = segment_span(n, b);
+        let at = |p: usize| if reverse { n - 1 - p } else { p };
+        let mut steps = Vec::with_capacity(span * (b + 1));
+        for j in 0..span {
+            steps.push(std::array::from_fn(
+                |k| f.inverse_diagonal[at(k * span + j)],
+            ));
+            for m in 0..b {
+                steps.push(std::array::from_fn(|k| coef[at(k * span + j) * b + m]));
             }
-            out
-        };
-        Responses {
-            span,
-            forward: run(&f.forward, false),
-            backward: run(&f.backward, true),
+        }
+        let (mut responses, mut ends) = (Vec::new(), Vec::new());
+        for k in 1..LANES {
+            for q in 0..b {
+                let positions = (k * span..(k + 1) * span).map(at);
+                let h = zero_input_response(coef, b, q, positions);
+                ends.extend_from_slice(&h[span - b..]);
+                responses.push(decayed(h, b));
+            }
+        }
+        Direction {
+            steps,
+            responses,
+            ends,
         }
     }
+}
+
+/// Segment length: a multiple of b (the main loop takes b steps at a time, see
+/// [`BandCholesky::substitute_segmented`]).
+fn segment_span(n: usize, b: usize) -> usize {
+    n / LANES / b * b
+}
+
+/// The substitution's output at `positions` for a zero right-hand side, started from a
+/// window with a unit entry in slot q.
+fn zero_input_response(
+    coef: &[f64],
+    b: usize,
+    q: usize,
+    positions: impl Iterator<Item = usize>,
+) -> Vec<f64> {
+    let mut window = vec![0.0; b];
+    window[q] = 1.0;
+    positions
+        .map(|i| {
+            let y = -(0..b).fold(0.0, |acc, m| acc + coef[i * b + m] * window[m]);
+            window.rotate_left(1);
+            window[b - 1] = y;
+            y
+        })
+        .collect()
+}
+
+/// `h` up to where the recursion's state (its last b values) has become negligible: the
+/// rest is a response to that state, as negligible (the factor is well conditioned).
+fn decayed(mut h: Vec<f64>, b: usize) -> Vec<f64> {
+    let peak = h.iter().fold(1.0f64, |p, v| p.max(v.abs()));
+    let small = |e: &usize| h[e - b..*e].iter().all(|v| v.abs() < NEGLIGIBLE * peak);
+    let len = (b..=h.len()).find(small).unwrap_or(h.len());
+    h.truncate(len);
+    h
 }
 
 impl BandCholesky {
     /// Solves A x = rhs in place (forward then backward substitution).
     pub fn solve_in_place(&self, x: &mut [f64]) {
-        // fixed bandwidths unroll the inner products (the bandwidths of the row filters)
+        #[cfg(target_arch = "x86_64")]
+        if self.fused {
+            // SAFETY: `fused` is set only when the CPU has FMA and AVX2.
+            return unsafe { self.solve_fused(x) };
+        }
+        self.solve_with::<Plain>(x)
+    }
+
+    /// The kernels compiled with FMA and AVX2 (they are all `inline(always)` into this
+    /// function).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma,avx2")]
+    unsafe fn solve_fused(&self, x: &mut [f64]) {
+        self.solve_with::<Fused>(x)
+    }
+
+    /// The solve with the arithmetic `A`; fixed bandwidths unroll the inner products.
+    #[inline(always)]
+    fn solve_with<A: Arith>(&self, x: &mut [f64]) {
         match self.bandwidth {
-            1 => self.solve_in_registers::<1>(x),
-            2 => self.solve_in_registers::<2>(x),
-            3 => self.solve_in_registers::<3>(x),
-            5 => self.solve_in_memory::<5>(x),
-            7 => self.solve_in_memory::<7>(x),
+            1 => self.solve_fixed::<A, 1>(x),
+            2 => self.solve_fixed::<A, 2>(x),
+            3 => self.solve_fixed::<A, 3>(x),
+            5 => self.solve_fixed::<A, 5>(x),
+            7 => self.solve_fixed::<A, 7>(x),
             _ => self.solve_dynamic(x),
         }
     }
 
     /// Substitutions with the last B results kept in registers and the pre-scaled
-    /// coefficients, so that each step waits only on one multiply and one subtract (the
-    /// latency chain of a banded solve is its cost). For small B.
-    fn solve_in_registers<const B: usize>(&self, x: &mut [f64]) {
-        if let Some(r) = &self.responses {
-            self.substitute_segmented::<B, false>(x, &self.forward, &r.forward, r.span);
-            self.substitute_segmented::<B, true>(x, &self.backward, &r.backward, r.span);
+    /// coefficients, so that each step waits only on one multiply-subtract (the latency
+    /// chain of a banded solve is its cost); segmented for long orders.
+    #[inline(always)]
+    fn solve_fixed<A: Arith, const B: usize>(&self, x: &mut [f64]) {
+        if let Some(s) = &self.segmented {
+            self.substitute_segmented::<A, B, false>(x, &self.forward, &s.forward, s.span);
+            self.substitute_segmented::<A, B, true>(x, &self.backward, &s.backward, s.span);
             return;
         }
         let n = self.size;
         let mut window = [0.0; B];
-        self.substitute::<B, false>(x, &self.forward, 0, n, &mut window);
+        self.substitute::<A, B, false>(x, &self.forward, 0, n, &mut window);
         let mut window = [0.0; B];
-        self.substitute::<B, true>(x, &self.backward, 0, n, &mut window);
+        self.substitute::<A, B, true>(x, &self.backward, 0, n, &mut window);
     }
 
     /// One substitution over the positions [start, end) of its order (position p is x[p],
     /// or x[n − 1 − p] when `REV`): y_p = x_p / L_pp − Σ_m coef_p[m] y_{p−B+m}, `window`
     /// holding y_{p−B..p} (oldest first).
     #[inline(always)]
-    fn substitute<const B: usize, const REV: bool>(
+    fn substitute<A: Arith, const B: usize, const REV: bool>(
         &self,
         x: &mut [f64],
         coef: &[f64],
@@ -230,80 +366,144 @@ impl BandCholesky {
     ) {
         let n = self.size;
         for p in start..end {
-            self.step(x, coef, if REV { n - 1 - p } else { p }, window);
+            let i = if REV { n - 1 - p } else { p };
+            let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
+            // the newest window entry last: it alone is on the latency chain
+            let mut acc = x[i] * self.inverse_diagonal[i];
+            for m in 0..B {
+                acc = A::sub_product(acc, c[m], window[m]);
+            }
+            x[i] = acc;
+            window.rotate_left(1);
+            window[B - 1] = acc;
         }
     }
 
-    /// x_i ← x_i / L_ii − Σ_m coef_i[m] window[m], then pushed into `window`.
+    /// The substitution on the LANES segments at once from zero windows, then the
+    /// corrections, then the remainder from the exact window of the last segment.
     #[inline(always)]
-    fn step<const B: usize>(&self, x: &mut [f64], coef: &[f64], i: usize, window: &mut [f64; B]) {
-        let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
-        let mut acc = x[i] * self.inverse_diagonal[i];
-        for m in 0..B {
-            acc -= c[m] * window[m];
-        }
-        x[i] = acc;
-        window.rotate_left(1);
-        window[B - 1] = acc;
-    }
-
-    /// The substitution on SEGMENTS segments at once, each started from a zero window (their
-    /// latency chains overlap), then corrected segment by segment with the zero-input
-    /// responses to the exact window left by the previous one.
-    fn substitute_segmented<const B: usize, const REV: bool>(
+    fn substitute_segmented<A: Arith, const B: usize, const REV: bool>(
         &self,
         x: &mut [f64],
         coef: &[f64],
-        responses: &[Vec<f64>],
+        direction: &Direction,
         span: usize,
     ) {
         let n = self.size;
-        let mut windows = [[0.0; B]; SEGMENTS];
-        for j in 0..span {
-            for (k, window) in windows.iter_mut().enumerate() {
-                let p = k * span + j;
-                self.step(x, coef, if REV { n - 1 - p } else { p }, window);
+        let at = |p: usize| if REV { n - 1 - p } else { p };
+        assert!(LANES * span <= n && n == x.len() && direction.steps.len() == span * (B + 1));
+        // a ring of windows, B steps per iteration: slot (r + m) % B holds the result m − B
+        // steps back at step r, constant indices once unrolled, so the windows stay in
+        // registers (shifting them, or indexing them at run time, goes through memory)
+        let mut windows = [[0.0; LANES]; B];
+        for (t, group) in direction.steps.chunks_exact(B * (B + 1)).enumerate() {
+            // written out (not a loop): LLVM does not unroll the wider bands' groups itself
+            macro_rules! ring_steps {
+                ($($r:literal)*) => {$(
+                    if $r < B {
+                        let j = t * B + $r;
+                        lane_step_in_place::<A, B, REV>(x, span, j, group, &mut windows, $r);
+                    }
+                )*};
             }
+            ring_steps!(0 1 2 3 4 5 6);
         }
-        let last = &mut windows[SEGMENTS - 1];
-        self.substitute::<B, REV>(x, coef, SEGMENTS * span, n, last);
-        for k in 1..SEGMENTS {
-            let start = k * span;
-            let end = if k + 1 == SEGMENTS { n } else { start + span };
-            let at = |p: usize| if REV { n - 1 - p } else { p };
-            let exact: [f64; B] = std::array::from_fn(|m| x[at(start - B + m)]);
-            for (m, &w) in exact.iter().enumerate() {
-                let h = &responses[(k - 1) * B + m];
-                for (p, hp) in (start..end).zip(h) {
-                    x[at(p)] += w * hp;
+        // span is a multiple of B: the ring is back in order, oldest first
+        // segment 0 started from the exact (zero) window
+        let mut entering = [0.0; B];
+        for k in 1..LANES {
+            entering = segment_end::<A, B>(&windows, direction, k - 1, &entering);
+            for (q, h) in direction.responses[(k - 1) * B..k * B].iter().enumerate() {
+                let start = at(k * span);
+                if REV {
+                    let seg = x[start + 1 - h.len()..=start].iter_mut().rev();
+                    add_scaled::<A>(seg, h, entering[q]);
+                } else {
+                    add_scaled::<A>(x[start..start + h.len()].iter_mut(), h, entering[q]);
                 }
             }
         }
+        let mut last = segment_end::<A, B>(&windows, direction, LANES - 1, &entering);
+        self.substitute::<A, B, REV>(x, coef, LANES * span, n, &mut last);
     }
+}
 
-    /// The same substitutions reading the last B results back from `x` (scalar stores and
-    /// loads, forwarded): for wider bands, whose windows do not fit in registers.
-    fn solve_in_memory<const B: usize>(&self, x: &mut [f64]) {
-        let (n, inv) = (self.size, &self.inverse_diagonal);
-        let (forward, backward) = (&self.forward, &self.backward);
-        for i in 0..n {
-            let coef: &[f64; B] = forward[i * B..(i + 1) * B].try_into().unwrap();
-            let mut acc = x[i] * inv[i];
-            for m in (B - i.min(B))..B {
-                acc -= coef[m] * x[i + m - B];
-            }
-            x[i] = acc;
-        }
-        for i in (0..n).rev() {
-            let coef: &[f64; B] = backward[i * B..(i + 1) * B].try_into().unwrap();
-            let mut acc = x[i] * inv[i];
-            for m in (i + B).saturating_sub(n - 1)..B {
-                acc -= coef[m] * x[i + B - m];
-            }
-            x[i] = acc;
+/// One step of the LANES segments: `c` holds 1/L_ii and the coefficients (see
+/// [`Direction::steps`]), `windows[(r + m) % B]` the results B − m steps back.
+#[inline(always)]
+fn lane_step<A: Arith, const B: usize>(
+    v: Lanes,
+    c: &[Lanes],
+    windows: &[Lanes; B],
+    r: usize,
+) -> Lanes {
+    let mut acc = [0.0; LANES];
+    for k in 0..LANES {
+        acc[k] = v[k] * c[0][k];
+    }
+    // the newest result last: it alone is on the latency chain
+    for m in 0..B {
+        let w = &windows[(r + m) % B];
+        for k in 0..LANES {
+            acc[k] = A::sub_product(acc[k], c[1 + m][k], w[k]);
         }
     }
+    acc
+}
 
+/// Step j of the LANES segments on x (see [`lane_step`]); r = j mod B; `group` holds
+/// the coefficients of the B steps from j − r.
+#[inline(always)]
+fn lane_step_in_place<A: Arith, const B: usize, const REV: bool>(
+    x: &mut [f64],
+    span: usize,
+    j: usize,
+    group: &[Lanes],
+    windows: &mut [Lanes; B],
+    r: usize,
+) {
+    let n = x.len();
+    let at = |p: usize| if REV { n - 1 - p } else { p };
+    // SAFETY (both blocks): k < LANES and j < span, so k · span + j < LANES · span ≤ n
+    // (asserted by the caller) and at() maps [0, n) onto itself; unchecked because the
+    // 2 · LANES bounds checks per step cost more than the arithmetic.
+    let v: Lanes = std::array::from_fn(|k| unsafe { *x.get_unchecked(at(k * span + j)) });
+    let y = lane_step::<A, B>(v, &group[r * (B + 1)..(r + 1) * (B + 1)], windows, r);
+    windows[r] = y;
+    for (k, &yk) in y.iter().enumerate() {
+        unsafe { *x.get_unchecked_mut(at(k * span + j)) = yk };
+    }
+}
+
+/// The exact window at the end of segment k: its zero-start one (`windows`, lane k) plus
+/// the response to the exact window `entering` it.
+#[inline(always)]
+fn segment_end<A: Arith, const B: usize>(
+    windows: &[Lanes; B],
+    direction: &Direction,
+    k: usize,
+    entering: &[f64; B],
+) -> [f64; B] {
+    std::array::from_fn(|m| {
+        let mut y = windows[m][k];
+        if k > 0 {
+            for (q, &w) in entering.iter().enumerate() {
+                y = A::add_product(y, w, direction.ends[((k - 1) * B + q) * B + m]);
+            }
+        }
+        y
+    })
+}
+
+/// x += w h, term by term.
+#[inline(always)]
+fn add_scaled<'a, A: Arith>(x: impl Iterator<Item = &'a mut f64>, h: &[f64], w: f64) {
+    for (v, &hp) in x.zip(h) {
+        *v = A::add_product(*v, w, hp);
+    }
+}
+
+impl BandCholesky {
     fn solve_dynamic(&self, x: &mut [f64]) {
         let (n, b) = (self.size, self.bandwidth);
         let (l, inv) = (&self.data, &self.inverse_diagonal);
@@ -352,20 +552,30 @@ mod tests {
         assert!(rhs.iter().zip(&x).all(|(p, q)| (p - q).abs() < 1e-12));
     }
 
+    /// A diagonally dominant test matrix with irregular off-diagonal entries.
+    fn test_matrix(n: usize, b: usize) -> SymmetricBand {
+        let mut a = SymmetricBand::zeros(n, b);
+        for i in 0..n {
+            a.add(i, i, 10.0);
+            for k in i.saturating_sub(b)..i {
+                a.add(i, k, ((i * 7 + k) % 5) as f64 * 0.2 - 0.4);
+            }
+        }
+        a
+    }
+
+    /// (bandwidth, order) pairs: n = 40: one pass; n ≥ 128: the segmented solves, with and
+    /// without a remainder.
+    fn test_cases() -> impl Iterator<Item = (usize, usize)> {
+        [1usize, 2, 3, 5, 7, 9]
+            .into_iter()
+            .flat_map(|b| [(b, 40usize), (b, 128), (b, 259), (b, 1000)])
+    }
+
     #[test]
     fn fixed_and_dynamic_solves_agree() {
-        // n = 40: one pass; n ≥ 64 (b ≤ 3): the segmented solves, uneven last segment
-        for (b, n) in [1usize, 2, 3, 5, 7, 9]
-            .into_iter()
-            .flat_map(|b| [(b, 40usize), (b, 259), (b, 1000)])
-        {
-            let mut a = SymmetricBand::zeros(n, b);
-            for i in 0..n {
-                a.add(i, i, 10.0);
-                for k in i.saturating_sub(b)..i {
-                    a.add(i, k, ((i * 7 + k) % 5) as f64 * 0.2 - 0.4);
-                }
-            }
+        for (b, n) in test_cases() {
+            let a = test_matrix(n, b);
             let ch = a.cholesky().unwrap();
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
             let (mut x, mut y) = (rhs.clone(), rhs.clone());
@@ -375,6 +585,48 @@ mod tests {
             a.mul_vec(&x, &mut back);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-13));
             assert!(back.iter().zip(&rhs).all(|(p, q)| (p - q).abs() < 1e-12));
+        }
+    }
+
+    /// A nearly singular matrix: slowly decaying responses, not cut within a segment.
+    fn slow_matrix(n: usize, b: usize) -> SymmetricBand {
+        let mut a = SymmetricBand::zeros(n, b);
+        for i in 0..n {
+            a.add(i, i, 2.5);
+            for k in i.saturating_sub(b)..i {
+                a.add(i, k, -0.8 / ((i - k) * (i - k)) as f64);
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn slowly_decaying_solves_agree() {
+        for (b, n) in test_cases() {
+            let a = slow_matrix(n, b);
+            let ch = a.cholesky().unwrap();
+            let rhs: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
+            let (mut x, mut y, mut z) = (rhs.clone(), rhs.clone(), rhs.clone());
+            ch.solve_in_place(&mut x);
+            ch.solve_dynamic(&mut y);
+            ch.solve_with::<Plain>(&mut z);
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
+            assert!(z.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
+        }
+    }
+
+    #[test]
+    fn fused_and_plain_solves_agree() {
+        // solve_in_place takes the fused kernels when the CPU has FMA
+        println!("fused kernels: {}", fused_available());
+        for (b, n) in test_cases() {
+            let ch = test_matrix(n, b).cholesky().unwrap();
+            let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();
+            let (mut x, mut y) = (rhs.clone(), rhs);
+            ch.solve_in_place(&mut x);
+            ch.solve_with::<Plain>(&mut y);
+            assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
         }
     }
 
