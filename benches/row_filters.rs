@@ -32,7 +32,9 @@ fn bench_scalar(c: &mut Criterion) {
         let z = image(&model, side);
         let mut out = vec![0.0; z.len()];
         let filter = ScalarRowFilter::new(&model, 1.0, side, None, false).unwrap();
-        filter.filter_image(&z, None, &mut out, side, false).unwrap(); // builds the plan
+        filter
+            .filter_image(&z, None, &mut out, side, false)
+            .unwrap(); // builds the plan
         for smooth in [false, true] {
             let id = format!("({order},{order}) smooth={smooth}");
             group.bench_with_input(BenchmarkId::from_parameter(id), &smooth, |b, &s| {

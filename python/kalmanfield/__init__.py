@@ -6,7 +6,7 @@ Formulas and their sources are in SPEC.md; each public item's docstring cites it
 
 from .ar_field_model import ARFieldModel
 from .branching_tracker import BranchingTracker
-from .denoise import denoise, estimate_noise_var, model_from_noisy
+from .denoise import denoise, estimate_noise_var, local_moments, model_from_noisy
 from .field_stream import FieldStream
 from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
 from .link import link
@@ -30,6 +30,7 @@ __all__ = [
     "YuleWalkerModel",
     "denoise",
     "estimate_noise_var",
+    "local_moments",
     "identify",
     "link",
     "model_from_noisy",

@@ -79,7 +79,12 @@ class VectorRowFilter:
 
 class ScalarRowFilter:
     def __init__(
-        self, model: FieldModel, noise_var: float, width: int, ar_order: int | None = None
+        self,
+        model: FieldModel,
+        noise_var: float,
+        width: int,
+        ar_order: int | None = None,
+        toeplitz: bool = False,
     ) -> None: ...
     def bandwidth(self) -> int: ...
     def filter_into(
@@ -88,8 +93,15 @@ class ScalarRowFilter:
         out: npt.NDArray[np.float64],
         smooth: bool,
         threads: int | None = None,
+        weights: npt.NDArray[np.float64] | None = None,
     ) -> None: ...
 
+def local_moments_into(
+    z: npt.NDArray[np.float64],
+    radius: int,
+    mean: npt.NDArray[np.float64],
+    var: npt.NDArray[np.float64],
+) -> None: ...
 def wiener_bound(model: FieldModel, noise_var: float, height: int, width: int) -> float: ...
 def wiener_map(
     model: FieldModel, noise_var: float, height: int, width: int

@@ -31,10 +31,10 @@ def positive_float(value: object, name: str) -> float:
     return float(value)
 
 
-def images(z: npt.ArrayLike, width: int) -> np.ndarray:
+def images(z: npt.ArrayLike, width: int, missing: bool = False) -> np.ndarray:
     """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
-    uint8/uint16/int/float32 inputs are converted; bool and complex are refused; NaN and
-    infinite pixels are refused (missing observations are not supported yet)."""
+    uint8/uint16/int/float32 inputs are converted; bool and complex are refused; infinite
+    pixels are refused, and NaN pixels too unless `missing` (NaN = missing observation)."""
     arr = real_array(z, "images")
     if arr.ndim not in (2, 3):
         raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
@@ -42,10 +42,16 @@ def images(z: npt.ArrayLike, width: int) -> np.ndarray:
         raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
     if arr.shape[-2] == 0:
         raise ValueError("the images have no rows")
-    if not np.isfinite(arr.sum()) and not np.isfinite(arr).all():  # the sum is the fast path
+    if np.isfinite(arr.sum()):  # the fast path
+        return arr
+    if missing and not np.isinf(arr).any():
+        return arr
+    if not np.isfinite(arr).all():
         raise ValueError(
-            "the images hold NaN or infinite pixels: the row filters need every pixel "
-            "(fill or inpaint missing pixels first)"
+            "the images hold infinite pixels"
+            if missing
+            else "the images hold NaN or infinite pixels: this filter needs every pixel "
+            "(ScalarRowFilter treats NaN pixels as missing observations)"
         )
     return arr
 

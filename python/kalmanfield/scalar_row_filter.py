@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
 from . import _core
-from ._row_filter import RowFilter
-from ._validation import positive_int
+from ._row_filter import RowFilter, images
+from ._validation import positive_int, real_array
 from .ar_field_model import ARFieldModel
+
+_MODES = ("exact", "toeplitz")
 
 
 class ScalarRowFilter(RowFilter):
@@ -28,10 +35,20 @@ class ScalarRowFilter(RowFilter):
     smooth=True adds the RTS pass over the rows (the default of :func:`denoise`): within
     ~2 % of :func:`wiener_bound`.
     mean : the field's mean (subtracted before filtering, added back).
+    modes : where the band of the optimal P_e comes from. "exact" (default): the eigenbasis of
+        the row correlation, edges of the row included (O(W³) once, faer). "toeplitz": the
+        Fourier modes of the infinite row (the band is then the same at every column; no
+        O(W³) step, so it suits wide rows and one-off calls; it ignores the larger error near
+        the row's ends — the README gives the loss).
     The per-row models are built on the first call for a given image height and cached.
+
+    Missing pixels and per-pixel noise: :meth:`filter` takes NaN pixels as missing
+    observations and an optional per-pixel noise variance map; they enter the row update
+    only (A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ is refactored per row), the prediction-error model Λ_k
+    stays the one fitted for the nominal `noise_var`.
     """
 
-    __slots__ = ("_ar_order",)
+    __slots__ = ("_ar_order", "_modes")
 
     def __init__(
         self,
@@ -43,12 +60,55 @@ class ScalarRowFilter(RowFilter):
         *,
         mean: float = 0.0,
         threads: int | None = None,
+        modes: Literal["exact", "toeplitz"] = "exact",
     ) -> None:
         self._set_parameters(model, noise_var, width, smooth, mean, threads)
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
+        if modes not in _MODES:
+            raise ValueError(f"modes must be 'exact' or 'toeplitz', got {modes!r}")
+        self._modes = modes
         self._core = _core.ScalarRowFilter(
-            model._core, self._noise_var, self._width, self._ar_order
+            model._core, self._noise_var, self._width, self._ar_order, modes == "toeplitz"
         )
+
+    @property
+    def modes(self) -> str:
+        """ "exact" or "toeplitz" (see the class docstring)."""
+        return self._modes
+
+    def filter(self, z: npt.ArrayLike, noise_var: npt.ArrayLike | None = None) -> np.ndarray:
+        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
+        released). NaN pixels are missing observations. `noise_var`: per-pixel σ_θ² map
+        broadcastable to z's shape (> 0; inf = missing); None = the filter's noise_var.
+        Returns float64 of z's shape."""
+        arr = images(z, self._width, missing=True)
+        missing = np.isnan(arr)
+        if noise_var is None and not missing.any():
+            return super().filter(arr)
+        weights = self._weights(arr.shape, noise_var)
+        weights[missing] = 0.0
+        centred = np.where(missing, 0.0, arr - self._mean)
+        out = np.empty_like(arr)
+        self._core.filter_into(centred, out, self._smooth, self._threads, weights)
+        if self._mean:
+            out += self._mean
+        return out
+
+    def _weights(self, shape: tuple[int, ...], noise_var: npt.ArrayLike | None) -> np.ndarray:
+        """1/σ_θ² per pixel, C-contiguous of `shape`."""
+        if noise_var is None:
+            return np.full(shape, 1.0 / self._noise_var)
+        var = real_array(noise_var, "noise_var")
+        try:
+            var = np.broadcast_to(var, shape)
+        except ValueError:
+            raise ValueError(
+                f"noise_var of shape {var.shape} does not broadcast to the images' {shape}"
+            ) from None
+        if np.isnan(var).any() or not (var > 0).all():
+            raise ValueError("noise_var must be > 0 at every pixel (inf marks a missing one)")
+        with np.errstate(divide="ignore"):
+            return np.ascontiguousarray(1.0 / var)
 
     @property
     def ar_order(self) -> int:
@@ -58,11 +118,12 @@ class ScalarRowFilter(RowFilter):
     def __repr__(self) -> str:
         return (
             f"ScalarRowFilter({self._model!r}, noise_var={self._noise_var}, "
-            f"width={self._width}, ar_order={self.ar_order}, smooth={self._smooth})"
+            f"width={self._width}, ar_order={self.ar_order}, smooth={self._smooth}, "
+            f"modes={self._modes!r})"
         )
 
     def __reduce__(self):
-        kwargs = {"mean": self._mean, "threads": self._threads}
+        kwargs = {"mean": self._mean, "threads": self._threads, "modes": self._modes}
         args = (self._model, self._noise_var, self._width, self._ar_order, self._smooth)
         return (_rebuild, (args, kwargs))
 

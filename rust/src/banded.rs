@@ -67,31 +67,29 @@ impl SymmetricBand {
         }
     }
 
+    /// The bare Cholesky factor, with no solve plan (pre-scaled coefficients, segment
+    /// responses) to build: for systems that change with every right-hand side (the
+    /// weighted rows of the row filter).
+    pub fn plain_cholesky(&self) -> Result<PlainCholesky> {
+        let mut data = self.data.clone();
+        factor_in_place(&mut data, self.size, self.bandwidth)?;
+        let b = self.bandwidth;
+        let inverse_diagonal = (0..self.size)
+            .map(|i| 1.0 / data[i * (b + 1) + b])
+            .collect();
+        Ok(PlainCholesky {
+            size: self.size,
+            bandwidth: b,
+            data,
+            inverse_diagonal,
+        })
+    }
+
     /// The Cholesky factor L (A = L Lᵀ), same band storage.
     pub fn cholesky(&self) -> Result<BandCholesky> {
         let (n, b) = (self.size, self.bandwidth);
         let mut l = self.data.clone();
-        for i in 0..n {
-            let first = i.saturating_sub(b);
-            for k in first..=i {
-                let mut sum = l[i * (b + 1) + k + b - i];
-                let start = first.max(k.saturating_sub(b));
-                for p in start..k {
-                    sum -= l[i * (b + 1) + p + b - i] * l[k * (b + 1) + p + b - k];
-                }
-                if k == i {
-                    if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                        return Err(FieldError::InvalidParameter(
-                            "a filter matrix is not positive definite (ill-conditioned model)"
-                                .into(),
-                        ));
-                    }
-                    l[i * (b + 1) + b] = sum.sqrt();
-                } else {
-                    l[i * (b + 1) + k + b - i] = sum / l[k * (b + 1) + b];
-                }
-            }
-        }
+        factor_in_place(&mut l, n, b)?;
         let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
         // Pre-scaled coefficients of the substitutions, zero outside the matrix: row i of L
         // (columns i − b..i) and column i below the pivot (rows i + 1..i + b), times 1/L_ii.
@@ -128,6 +126,65 @@ impl SymmetricBand {
         }
         Ok(factor)
     }
+}
+
+/// Lower Cholesky factor of a [`SymmetricBand`] solved by plain substitutions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlainCholesky {
+    size: usize,
+    bandwidth: usize,
+    data: Vec<f64>,
+    inverse_diagonal: Vec<f64>,
+}
+
+impl PlainCholesky {
+    /// Solves A x = rhs in place.
+    pub fn solve_in_place(&self, x: &mut [f64]) {
+        let (n, b, l, inv) = (
+            self.size,
+            self.bandwidth,
+            &self.data,
+            &self.inverse_diagonal,
+        );
+        for i in 0..n {
+            let first = i.saturating_sub(b);
+            let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
+            let sum: f64 = row.iter().zip(&x[first..i]).map(|(a, v)| a * v).sum();
+            x[i] = (x[i] - sum) * inv[i];
+        }
+        for i in (0..n).rev() {
+            let mut acc = x[i];
+            for j in 1..=b.min(n - 1 - i) {
+                acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
+            }
+            x[i] = acc * inv[i];
+        }
+    }
+}
+
+/// Band Cholesky in place (lower band stored row by row, see [`SymmetricBand`]).
+fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
+    for i in 0..n {
+        let first = i.saturating_sub(b);
+        for k in first..=i {
+            let mut sum = l[i * (b + 1) + k + b - i];
+            let start = first.max(k.saturating_sub(b));
+            for p in start..k {
+                sum -= l[i * (b + 1) + p + b - i] * l[k * (b + 1) + p + b - k];
+            }
+            if k == i {
+                if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    return Err(FieldError::InvalidParameter(
+                        "a filter matrix is not positive definite (ill-conditioned model)".into(),
+                    ));
+                }
+                l[i * (b + 1) + b] = sum.sqrt();
+            } else {
+                l[i * (b + 1) + k + b - i] = sum / l[k * (b + 1) + b];
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Lower Cholesky factor of a [`SymmetricBand`].
@@ -626,6 +683,18 @@ mod tests {
             let (mut x, mut y) = (rhs.clone(), rhs);
             ch.solve_in_place(&mut x);
             ch.solve_with::<Plain>(&mut y);
+            assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
+        }
+    }
+
+    #[test]
+    fn plain_and_planned_solves_agree() {
+        for (n, b) in [(9usize, 2usize), (300, 2), (300, 7)] {
+            let a = test_matrix(n, b);
+            let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+            let (mut x, mut y) = (rhs.clone(), rhs);
+            a.cholesky().unwrap().solve_in_place(&mut x);
+            a.plain_cholesky().unwrap().solve_in_place(&mut y);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
         }
     }

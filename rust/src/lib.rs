@@ -15,6 +15,7 @@ pub mod difference_gram;
 pub mod error;
 pub mod field_model;
 pub mod lag_products;
+pub mod local_moments;
 pub mod noise;
 pub mod product_field;
 pub mod row_modes;

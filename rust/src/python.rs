@@ -440,9 +440,8 @@ impl PyScalarRowFilter {
         ar_order: Option<usize>,
         toeplitz: bool,
     ) -> PyResult<Self> {
-        let inner = py.detach(|| {
-            ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, toeplitz)
-        })?;
+        let inner =
+            py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, toeplitz))?;
         Ok(Self { inner })
     }
 
@@ -484,6 +483,40 @@ impl PyScalarRowFilter {
     }
 }
 
+/// Box mean and variance (window 2·radius + 1, cut at the borders) of an image (H, W) or a
+/// stack (F, H, W), into `mean` and `var` (same shape).
+#[pyfunction]
+fn local_moments_into(
+    py: Python<'_>,
+    z: PyReadonlyArrayDyn<'_, f64>,
+    radius: usize,
+    mut mean: PyReadwriteArrayDyn<'_, f64>,
+    mut var: PyReadwriteArrayDyn<'_, f64>,
+) -> PyResult<()> {
+    let shape = z.shape().to_vec();
+    let (frames, height, width) = match shape.as_slice() {
+        [h, w] => (1, *h, *w),
+        [f, h, w] => (*f, *h, *w),
+        _ => return Err(PyValueError::new_err("z must be 2-D or 3-D")),
+    };
+    if mean.shape() != shape.as_slice() || var.shape() != shape.as_slice() {
+        return Err(PyValueError::new_err(
+            "mean and var must have the shape of z",
+        ));
+    }
+    let values = contiguous(&z, "z")?;
+    let mean = mean
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("mean must be C-contiguous"))?;
+    let var = var
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("var must be C-contiguous"))?;
+    py.detach(|| {
+        crate::local_moments::local_moments(values, frames, height, width, radius, mean, var)
+    })?;
+    Ok(())
+}
+
 /// Mean error variance of the best linear estimator on a height × width grid (SPEC §2.4).
 #[pyfunction]
 fn wiener_bound(
@@ -519,6 +552,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     segment::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
+    m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;
     m.add_function(wrap_pyfunction!(lag_products, m)?)?;
     m.add_function(wrap_pyfunction!(whiten_axis_into, m)?)?;

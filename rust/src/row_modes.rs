@@ -157,7 +157,11 @@ mod tests {
     fn exact_band_of_the_prior_is_the_correlation() {
         let axis = AxisModel::new(0.8, 2).unwrap();
         let modes = RowModes::exact(&axis, 30).unwrap();
-        let scaled: Vec<Small> = modes.values().iter().map(|v| Small::identity() * *v).collect();
+        let scaled: Vec<Small> = modes
+            .values()
+            .iter()
+            .map(|v| Small::identity() * *v)
+            .collect();
         let band = modes.band(&scaled, 1, 3);
         for (d, lag) in band.iter().enumerate() {
             for l in 0..lag.nrows() {

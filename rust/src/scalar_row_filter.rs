@@ -21,13 +21,11 @@
 //! variant refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row (the model Λ_k stays the one fitted
 //! for the nominal noise variance).
 
-use crate::banded::{BandCholesky, SymmetricBand};
+use crate::banded::{BandCholesky, PlainCholesky, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_modes::RowModes;
-use crate::vector_row_filter::{
-    check_images, ModeCovariance, RowDynamics, Small, MAX_ROW_ORDER,
-};
+use crate::vector_row_filter::{check_images, ModeCovariance, RowDynamics, Small, MAX_ROW_ORDER};
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -368,7 +366,13 @@ impl ScalarRowFilter {
     }
 
     /// Sizes, finite pixels; with weights: finite weights ≥ 0, finite pixels where > 0.
-    fn check(&self, z: &[f64], weights: Option<&[f64]>, out: &[f64], expected: usize) -> Result<()> {
+    fn check(
+        &self,
+        z: &[f64],
+        weights: Option<&[f64]>,
+        out: &[f64],
+        expected: usize,
+    ) -> Result<()> {
         let Some(weights) = weights else {
             return check_images(z, out, expected);
         };
@@ -384,7 +388,10 @@ impl ScalarRowFilter {
                 "the pixel weights (1/noise variance) must be finite and ≥ 0".into(),
             ));
         }
-        if z.iter().zip(weights).any(|(v, w)| *w > 0.0 && !v.is_finite()) {
+        if z.iter()
+            .zip(weights)
+            .any(|(v, w)| *w > 0.0 && !v.is_finite())
+        {
             return Err(FieldError::NonFinite(
                 "a pixel with a finite noise variance is NaN or infinite".into(),
             ));
@@ -460,25 +467,25 @@ impl ScalarRowFilter {
         } else {
             Vec::new()
         };
-        // weighted rows: A_t per row (kept for the RTS pass) and the start's running sum
-        let mut systems: Vec<SymmetricBand> = Vec::new();
+        // weighted rows: the factor of A_t per row (kept for the RTS pass), the start's sum
+        let mut systems: Vec<PlainCholesky> = Vec::new();
         let mut start = None;
         let observed = |t: usize| n.saturating_sub(t);
         for t in 1..=height {
             let row = &z[(t - 1) * w..t * w];
             let row_weights = weights.map(|r| &r[(t - 1) * w..t * w]);
             let weight = |ell: usize| row_weights.map_or(1.0 / self.noise_var, |r| r[ell]);
-            let own;
-            let factor = match row_weights {
-                None => plan.factor(t),
-                Some(r) => {
-                    let system = self.weighted_system(plan, t, r, &mut start);
-                    own = system.cholesky()?;
-                    if smooth {
-                        systems.push(system);
-                    }
-                    &own
-                }
+            let system = match row_weights {
+                Some(r) => Some(
+                    self.weighted_system(plan, t, r, &mut start)
+                        .plain_cholesky()?,
+                ),
+                None => None,
+            };
+            // A_t x = rhs: the plan's factor, or this row's weighted system
+            let solve = |x: &mut [f64]| match &system {
+                None => plan.factor(t).solve_in_place(x),
+                Some(a) => a.solve_in_place(x),
             };
             if t <= n {
                 let h = self.lower.row(n - t);
@@ -491,7 +498,7 @@ impl ScalarRowFilter {
                     }
                 }
                 state.copy_from_slice(&info);
-                factor.solve_in_place(&mut state);
+                solve(&mut state);
             } else {
                 self.apply_transition(&mut state, false);
                 gain_in.fill(0.0);
@@ -501,8 +508,11 @@ impl ScalarRowFilter {
                         gain_in[ell * n] = (zl - state[ell * n]) * r_ell;
                     }
                 }
-                factor.solve_in_place(&mut gain_in);
+                solve(&mut gain_in);
                 state.iter_mut().zip(&gain_in).for_each(|(s, g)| *s += g);
+            }
+            if smooth {
+                systems.extend(system);
             }
             self.readout(&state, observed(t), &mut out[(t - 1) * w..t * w]);
             if smooth {
@@ -527,7 +537,7 @@ impl ScalarRowFilter {
             plan.precision(t + 1).mul_vec(&predicted, &mut d);
             self.apply_transition(&mut d, true);
             if weights.is_some() {
-                systems[t - 1].cholesky()?.solve_in_place(&mut d);
+                systems[t - 1].solve_in_place(&mut d);
             } else {
                 plan.factor(t).solve_in_place(&mut d);
             }

@@ -293,7 +293,9 @@ impl VectorRowFilter {
     fn predict(&self, state: &[f64; MAX_ROW_ORDER]) -> [f64; MAX_ROW_ORDER] {
         let n = self.dynamics.order;
         let mut next = [0.0; MAX_ROW_ORDER];
-        next[0] = (0..n).map(|i| self.dynamics.transition[(0, i)] * state[i]).sum();
+        next[0] = (0..n)
+            .map(|i| self.dynamics.transition[(0, i)] * state[i])
+            .sum();
         next[1..n].copy_from_slice(&state[..n - 1]);
         next
     }
@@ -339,7 +341,10 @@ impl VectorRowFilter {
             history.push(self.dynamics.riccati_step(t, &prev, ratio));
         }
         let mut smoothed = history[height - 1].filtered;
-        column[height - 1] = smoothed[(self.dynamics.observed(height), self.dynamics.observed(height))];
+        column[height - 1] = smoothed[(
+            self.dynamics.observed(height),
+            self.dynamics.observed(height),
+        )];
         for t in 1..height {
             let c = &history[t - 1];
             let h = self.dynamics.observed(t);

@@ -135,6 +135,29 @@ def row_modes(rho_x: float, n_x: int, sigma: float, width: int) -> tuple[np.ndar
     return np.clip(lam, 0.0, None), u
 
 
+def toeplitz_modes(rho_x: float, n_x: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+    """Fourier modes of the infinite row (twin of ``RowModes::toeplitz``): (σ² λ_g, w_g) on
+    the trapezoid nodes ω_g = πg/G, G = clip(⌈24/(1 − ρ_x)⌉, 256, 65536), λ_g ∝
+    (1 − 2ρ_x cos ω_g + ρ_x²)^(−n_x) normalised to trapezoid mean 1 [P 2.11]."""
+    intervals = int(np.clip(np.ceil(24.0 / (1.0 - rho_x)), 256, 1 << 16))
+    weights = np.full(intervals + 1, 1.0 / intervals)
+    weights[[0, -1]] *= 0.5
+    omega = np.pi * np.arange(intervals + 1) / intervals
+    raw = (1.0 - 2.0 * rho_x * np.cos(omega) + rho_x**2) ** (-float(n_x))
+    return sigma**2 * raw / (raw @ weights), weights
+
+
+def toeplitz_band(weights: np.ndarray, modal_cov: np.ndarray, m: int, width: int) -> list:
+    """``prediction_band`` for the Toeplitz modes: block d = (1/π)∫ cos(dω) P(ω) dω by the
+    trapezoid rule, the same for every ℓ (shape (W−d, n, n))."""
+    omega = np.pi * np.arange(weights.size) / (weights.size - 1)
+    out = []
+    for d in range(min(m, width - 1) + 1):
+        block = np.einsum("g,gab->ab", weights * np.cos(d * omega), modal_cov)
+        out.append(np.broadcast_to(block, (width - d, *block.shape)).copy())
+    return out
+
+
 def row_schedule(n: int, height: int) -> list[tuple[bool, int]]:
     """For each row t = 1..height: (predict?, observed state index).  Rows 1..n observe the
     static stack (x̄_n..x̄_1) at index n−t; later rows predict with S and observe index 0."""
@@ -168,12 +191,16 @@ def wiener_bound(rho, order, sigma, noise_var, shape) -> float:
 # 2. optimal vector row filter (modal form of SPEC §2.1–2.2)
 
 
-def modal_riccati(rho, order, sigma, noise_var, width, height):
+def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact"):
     """Riccati recursion of the optimal row filter (SPEC §2.2 [P 3.29, 3.30]), one n×n filter per
     eigen-mode λ_j of T_x.  Returns (λ, U_x, steps); steps[t] = dict(pe, pf, gain) with arrays of
-    shape (W, n, n), (W, n, n), (W, n): prediction / filtered covariances and Kalman gains."""
+    shape (W, n, n), (W, n, n), (W, n): prediction / filtered covariances and Kalman gains.
+    modes="toeplitz": the Fourier modes of ``toeplitz_modes`` (U_x is then their weights)."""
     n = order[0]
-    lam, u = row_modes(rho[1], order[1], sigma, width)
+    if modes == "toeplitz":
+        lam, u = toeplitz_modes(rho[1], order[1], sigma)
+    else:
+        lam, u = row_modes(rho[1], order[1], sigma, width)
     a = companion(rho[0], n)
     q = np.zeros((n, n))
     q[0, 0] = beta_tilde_sq(rho[0], n)
@@ -351,18 +378,34 @@ def observation_block(lower: np.ndarray, index: int, width: int, noise_var: floa
 
 
 def scalar_filter_plan(
-    rho, order, sigma, noise_var, width, height, ar_order=None, tol=1e-3, transient=True
+    rho,
+    order,
+    sigma,
+    noise_var,
+    width,
+    height,
+    ar_order=None,
+    tol=1e-3,
+    transient=True,
+    modes="exact",
 ):
     """Precomputed per-row quantities of the quasi-optimal filter (module doc, part 3), in the
     whitened row basis of ``row_basis``: list over rows t of dict(prec=Λ_t (sparse),
     chol=banded Cholesky of A_t, index=observed state index, predict=bool).
     transient=True: Λ_t is refitted to the band of the optimal P_e,t until that band settles
     (relative change < tol).  transient=False: one model, fitted to the steady-state P_e,∞,
-    serves every row after the (exact) start.  ar_order None → n_x + 1."""
+    serves every row after the (exact) start.  ar_order None → n_x + 1.  modes="toeplitz":
+    the band from the Fourier modes of the infinite row (``toeplitz_band``)."""
     n, m = order[0], (order[1] + 1 if ar_order is None else ar_order)
     bw = n * (m + 1) - 1
     tmat, lower = row_basis(rho[0], n)
-    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height)
+    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height, modes)
+
+    def prediction_band_of(pe):
+        if modes == "toeplitz":
+            return toeplitz_band(u, pe, m, width)
+        return prediction_band(u, pe, m)
+
     if not transient:
         pe_inf = steady_prediction(rho, order, sigma, noise_var, width)
         steps = [st if t < n else {"pe": pe_inf} for t, st in enumerate(steps)]
@@ -373,17 +416,23 @@ def scalar_filter_plan(
         pe = 0.5 * (pe + pe.transpose(0, 2, 1))  # exactly symmetric: T is ill-conditioned
         if not predict:  # static start: exact stationary prior, accumulated observations
             if t == 0:
-                prec = markov_precision(prediction_band(u, pe, m), m)  # exact if m ≥ n_x
+                prec = markov_precision(prediction_band_of(pe), m)  # exact if m ≥ n_x
                 obs = prec
             obs = obs + observation_block(lower, i, width, noise_var)
             plan.append(
-                {"prec": prec, "chol": banded_cholesky(obs, bw), "index": i, "predict": False}
+                {
+                    "prec": prec,
+                    "chol": banded_cholesky(obs, bw),
+                    "index": i,
+                    "predict": False,
+                    "bandwidth": bw,
+                }
             )
             continue
         if frozen:
-            plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True})
+            plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
             continue
-        band = prediction_band(u, pe, m)
+        band = prediction_band_of(pe)
         frozen = prev_band is not None and all(
             np.max(np.abs(b - c)) <= tol * np.max(np.abs(band[0])) for b, c in zip(band, prev_band)
         )
@@ -391,7 +440,7 @@ def scalar_filter_plan(
             prec = markov_precision(band, m)
             chol = banded_cholesky(prec + observation_block(lower, 0, width, noise_var), bw)
             prev_band = band
-        plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True})
+        plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
     return plan
 
 
@@ -401,14 +450,38 @@ def _apply_block(a: np.ndarray, state: np.ndarray, n: int) -> np.ndarray:
     return np.einsum("ab,lbk->lak", a, state.reshape(-1, n, b)).reshape(-1, b)
 
 
-def scalar_row_filter(z, rho, order, sigma, noise_var, ar_order=None, smooth=False, plan=None):
+def scalar_row_filter(
+    z, rho, order, sigma, noise_var, ar_order=None, smooth=False, plan=None, weights=None
+):
     """Quasi-optimal row filter (SPEC §2.3 generalised, module doc part 3), O(W n² m) per row.
-    z: (H, W) or batch (H, W, B).  Returns the estimate (causal, or RTS-smoothed)."""
-    causal, smoothed = scalar_row_passes(z, rho, order, sigma, noise_var, ar_order, smooth, plan)
+    z: (H, W) or batch (H, W, B).  Returns the estimate (causal, or RTS-smoothed).
+    weights: (H, W) per-pixel 1/σ_θ² (0 = missing pixel), see ``weighted_systems``."""
+    causal, smoothed = scalar_row_passes(
+        z, rho, order, sigma, noise_var, ar_order, smooth, plan, weights
+    )
     return smoothed if smooth else causal
 
 
-def scalar_row_passes(z, rho, order, sigma, noise_var, ar_order=None, smooth=True, plan=None):
+def weighted_systems(plan, lower, weights):
+    """Banded Cholesky factors of A_t = Λ_t + Σ_ℓ w_tℓ h hᵀ (block ℓ) for per-pixel weights
+    w = 1/σ_θ² (0 = missing): the model Λ_t stays the one fitted for the nominal noise; the
+    start rows accumulate their observations (twin of the Rust weighted rows)."""
+    start, out = None, []
+    for step, row_weights in zip(plan, weights):
+        h = lower[step["index"]]
+        obs = sparse.kron(sparse.diags(row_weights), np.outer(h, h), format="csr")
+        if step["predict"]:
+            system = step["prec"] + obs
+        else:
+            start = obs if start is None else start + obs
+            system = step["prec"] + start
+        out.append(banded_cholesky(system, step["bandwidth"]))
+    return out
+
+
+def scalar_row_passes(
+    z, rho, order, sigma, noise_var, ar_order=None, smooth=True, plan=None, weights=None
+):
     """Both passes of ``scalar_row_filter``: (causal estimate, smoothed estimate or None)."""
     zb, single = _as_batch(z)
     height, width, nb = zb.shape
@@ -416,22 +489,30 @@ def scalar_row_passes(z, rho, order, sigma, noise_var, ar_order=None, smooth=Tru
     if plan is None:
         plan = scalar_filter_plan(rho, order, sigma, noise_var, width, height, ar_order)
     tmat, lower = row_basis(rho[0], n)
+    if weights is None:
+        chols = [step["chol"] for step in plan]
+        weights = np.full((height, width), 1.0 / noise_var)
+    else:
+        weights = np.asarray(weights, dtype=np.float64)
+        chols = weighted_systems(plan, lower, weights)
     a = tmat @ companion(rho[0], n) @ lower  # transition in the whitened basis
     state = np.zeros((width * n, nb))
-    info = np.zeros((width * n, nb))  # Σ Hᵀ z / s during the static start
+    info = np.zeros((width * n, nb))  # Σ Hᵀ w z during the static start
     filt, pred = [], []
-    for step, zk in zip(plan, zb):
+    for step, chol, zk, wk in zip(plan, chols, zb, weights):
         h = lower[step["index"]]
         if step["predict"]:  # prediction, innovation, banded gain solve
             state = _apply_block(a, state, n)
             pred.append(state)
             innov = zk - state.reshape(width, n, nb)[:, 0, :]  # h = e₀ after the start
-            gain_in = (h[None, :, None] * innov[:, None, :] / noise_var).reshape(-1, nb)
-            state = state + cho_solve_banded((step["chol"], False), gain_in)
+            innov = np.where(wk[:, None] > 0, innov * wk[:, None], 0.0)
+            gain_in = (h[None, :, None] * innov[:, None, :]).reshape(-1, nb)
+            state = state + cho_solve_banded((chol, False), gain_in)
         else:  # static start: information form, exact
             pred.append(state)
-            info = info + (h[None, :, None] * zk[:, None, :] / noise_var).reshape(-1, nb)
-            state = cho_solve_banded((step["chol"], False), info)
+            seen = np.where(wk[:, None] > 0, zk * wk[:, None], 0.0)
+            info = info + (h[None, :, None] * seen[:, None, :]).reshape(-1, nb)
+            state = cho_solve_banded((chol, False), info)
         filt.append(state)
     t0 = min(n, height) - 1
     means = None
@@ -439,7 +520,7 @@ def scalar_row_passes(z, rho, order, sigma, noise_var, ar_order=None, smooth=Tru
         means = list(filt)
         for t in range(height - 2, t0 - 1, -1):
             d = plan[t + 1]["prec"] @ (means[t + 1] - pred[t + 1])
-            means[t] = filt[t] + cho_solve_banded((plan[t]["chol"], False), _apply_block(a.T, d, n))
+            means[t] = filt[t] + cho_solve_banded((chols[t], False), _apply_block(a.T, d, n))
         for t in range(t0):
             means[t] = means[t0]
 
