@@ -78,7 +78,6 @@ impl SymmetricBand {
             .map(|i| 1.0 / data[i * (b + 1) + b])
             .collect();
         Ok(PlainCholesky {
-            size: self.size,
             bandwidth: b,
             data,
             inverse_diagonal,
@@ -131,7 +130,6 @@ impl SymmetricBand {
 /// Lower Cholesky factor of a [`SymmetricBand`] solved by plain substitutions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlainCholesky {
-    size: usize,
     bandwidth: usize,
     data: Vec<f64>,
     inverse_diagonal: Vec<f64>,
@@ -140,25 +138,25 @@ pub struct PlainCholesky {
 impl PlainCholesky {
     /// Solves A x = rhs in place.
     pub fn solve_in_place(&self, x: &mut [f64]) {
-        let (n, b, l, inv) = (
-            self.size,
-            self.bandwidth,
-            &self.data,
-            &self.inverse_diagonal,
-        );
-        for i in 0..n {
-            let first = i.saturating_sub(b);
-            let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
-            let sum: f64 = row.iter().zip(&x[first..i]).map(|(a, v)| a * v).sum();
-            x[i] = (x[i] - sum) * inv[i];
+        substitute_plain(&self.data, &self.inverse_diagonal, self.bandwidth, x);
+    }
+}
+
+/// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan.
+fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
+    let n = inv.len();
+    for i in 0..n {
+        let first = i.saturating_sub(b);
+        let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
+        let sum: f64 = row.iter().zip(&x[first..i]).map(|(a, v)| a * v).sum();
+        x[i] = (x[i] - sum) * inv[i];
+    }
+    for i in (0..n).rev() {
+        let mut acc = x[i];
+        for j in (1..=b.min(n - 1 - i)).rev() {
+            acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
         }
-        for i in (0..n).rev() {
-            let mut acc = x[i];
-            for j in 1..=b.min(n - 1 - i) {
-                acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
-            }
-            x[i] = acc * inv[i];
-        }
+        x[i] = acc * inv[i];
     }
 }
 
@@ -562,21 +560,7 @@ fn add_scaled<'a, A: Arith>(x: impl Iterator<Item = &'a mut f64>, h: &[f64], w: 
 
 impl BandCholesky {
     fn solve_dynamic(&self, x: &mut [f64]) {
-        let (n, b) = (self.size, self.bandwidth);
-        let (l, inv) = (&self.data, &self.inverse_diagonal);
-        for i in 0..n {
-            let first = i.saturating_sub(b);
-            let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
-            let sum: f64 = row.iter().zip(&x[first..i]).map(|(a, v)| a * v).sum();
-            x[i] = (x[i] - sum) * inv[i];
-        }
-        for i in (0..n).rev() {
-            let mut acc = x[i];
-            for j in (1..=b.min(n - 1 - i)).rev() {
-                acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
-            }
-            x[i] = acc * inv[i];
-        }
+        substitute_plain(&self.data, &self.inverse_diagonal, self.bandwidth, x);
     }
 }
 
