@@ -70,8 +70,8 @@ impl SymmetricBand {
     /// The bare Cholesky factor, with no solve plan (pre-scaled coefficients, segment
     /// responses) to build: for systems that change with every right-hand side (the
     /// weighted rows of the row filter).
-    pub fn plain_cholesky(&self) -> Result<PlainCholesky> {
-        let mut data = self.data.clone();
+    pub fn plain_cholesky(self) -> Result<PlainCholesky> {
+        let mut data = self.data;
         factor_in_place(&mut data, self.size, self.bandwidth)?;
         let b = self.bandwidth;
         let inverse_diagonal = (0..self.size)
@@ -142,8 +142,19 @@ impl PlainCholesky {
     }
 }
 
-/// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan.
+/// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan;
+/// the row filters' small bandwidths get their own inlined copy (unrolled inner loops).
 fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
+    match b {
+        1 => substitute_plain_with(l, inv, 1, x),
+        2 => substitute_plain_with(l, inv, 2, x),
+        3 => substitute_plain_with(l, inv, 3, x),
+        _ => substitute_plain_with(l, inv, b, x),
+    }
+}
+
+#[inline(always)]
+fn substitute_plain_with(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
     let n = inv.len();
     for i in 0..n {
         let first = i.saturating_sub(b);
@@ -160,8 +171,19 @@ fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
     }
 }
 
-/// Band Cholesky in place (lower band stored row by row, see [`SymmetricBand`]).
+/// Band Cholesky in place (lower band stored row by row, see [`SymmetricBand`]); small
+/// bandwidths get their own inlined copy (unrolled inner loops).
 fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
+    match b {
+        1 => factor_with(l, n, 1),
+        2 => factor_with(l, n, 2),
+        3 => factor_with(l, n, 3),
+        _ => factor_with(l, n, b),
+    }
+}
+
+#[inline(always)]
+fn factor_with(l: &mut [f64], n: usize, b: usize) -> Result<()> {
     for i in 0..n {
         let first = i.saturating_sub(b);
         for k in first..=i {
@@ -678,7 +700,7 @@ mod tests {
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
             let (mut x, mut y) = (rhs.clone(), rhs);
             a.cholesky().unwrap().solve_in_place(&mut x);
-            a.plain_cholesky().unwrap().solve_in_place(&mut y);
+            a.clone().plain_cholesky().unwrap().solve_in_place(&mut y);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
         }
     }
