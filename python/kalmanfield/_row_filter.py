@@ -93,11 +93,16 @@ class RowFilter:
     def filter(self, z: npt.ArrayLike) -> np.ndarray:
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
         released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
-        arr = images(z, self._width)
+        return self._filter_checked(images(z, self._width))
+
+    def _filter_checked(self, arr: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`filter` on images already checked by :func:`images`; `weights` (per-pixel
+        1/σ_θ², ScalarRowFilter only) go to the kernel when given."""
         if self._mean:
             arr = arr - self._mean
         out = np.empty_like(arr)
-        self._core.filter_into(arr, out, self._smooth, self._threads)
+        extra = () if weights is None else (weights,)
+        self._core.filter_into(arr, out, self._smooth, self._threads, *extra)
         if self._mean:
             out += self._mean
         return out

@@ -84,15 +84,10 @@ class ScalarRowFilter(RowFilter):
         arr = images(z, self._width, missing=True)
         missing = np.isnan(arr)
         if noise_var is None and not missing.any():
-            return super().filter(arr)
+            return self._filter_checked(arr)
         weights = self._weights(arr.shape, noise_var)
-        weights[missing] = 0.0
-        centred = np.where(missing, 0.0, arr - self._mean)
-        out = np.empty_like(arr)
-        self._core.filter_into(centred, out, self._smooth, self._threads, weights)
-        if self._mean:
-            out += self._mean
-        return out
+        weights[missing] = 0.0  # the kernel ignores the (NaN) value of a weight-0 pixel
+        return self._filter_checked(arr, weights)
 
     def _weights(self, shape: tuple[int, ...], noise_var: npt.ArrayLike | None) -> np.ndarray:
         """1/σ_θ² per pixel, C-contiguous of `shape`."""

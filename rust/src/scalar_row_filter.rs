@@ -40,7 +40,6 @@ pub struct ScalarRowFilter {
     dynamics: RowDynamics,
     modes: RowModes,
     mode_var: Vec<f64>,
-    order: usize,
     ar_order: usize,
     noise_var: f64,
     lower: Small,
@@ -130,7 +129,6 @@ impl ScalarRowFilter {
             dynamics: RowDynamics::new(y),
             mode_var: modes.values().iter().map(|l| signal * l).collect(),
             modes,
-            order: n,
             ar_order,
             noise_var,
             lower,
@@ -147,7 +145,7 @@ impl ScalarRowFilter {
 
     /// Half-bandwidth b = n(m+1) − 1 of the row systems.
     pub fn bandwidth(&self) -> usize {
-        self.order * (self.ar_order + 1) - 1
+        self.dynamics.order * (self.ar_order + 1) - 1
     }
 
     fn plan(&self, height: usize) -> Result<Arc<Plan>> {
@@ -164,11 +162,11 @@ impl ScalarRowFilter {
 
     /// Band blocks C_d[ℓ] of Σ_j u_j u_jᵀ ⊗ M_j, d = 0..=m (see `RowModes::band`).
     fn band(&self, modal: &[Small]) -> Vec<Mat<f64>> {
-        self.modes.band(modal, self.order, self.ar_order)
+        self.modes.band(modal, self.dynamics.order, self.ar_order)
     }
 
     fn block(&self, band: &[Mat<f64>], i: usize, j: usize) -> DMatrix<f64> {
-        let n = self.order;
+        let n = self.dynamics.order;
         let (d, at, transpose) = if i <= j {
             (j - i, i, false)
         } else {
@@ -182,7 +180,7 @@ impl ScalarRowFilter {
 
     /// Λ = Lᵀ D⁻¹ L of the block AR(m) model fitted to the band (interleaved (ℓ, i) ↦ ℓn+i).
     fn precision(&self, band: &[Mat<f64>]) -> Result<SymmetricBand> {
-        let (w, n) = (self.width(), self.order);
+        let (w, n) = (self.width(), self.dynamics.order);
         let mut out = SymmetricBand::zeros(w * n, self.bandwidth());
         for ell in 0..w {
             let past: Vec<usize> = (ell.saturating_sub(self.ar_order)..ell).rev().collect();
@@ -240,7 +238,7 @@ impl ScalarRowFilter {
     /// a += Σ_ℓ weight(ℓ) h hᵀ on the block of column ℓ, h = row `index` of L (the observed
     /// row of the state in the whitened basis).
     fn add_observation(&self, a: &mut SymmetricBand, index: usize, weight: impl Fn(usize) -> f64) {
-        let n = self.order;
+        let n = self.dynamics.order;
         let h = self.lower.row(index);
         for ell in 0..self.width() {
             let r_ell = weight(ell);
@@ -264,7 +262,7 @@ impl ScalarRowFilter {
     }
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
-        let n = self.order;
+        let n = self.dynamics.order;
         let var = &self.mode_var;
         let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
         let mut plan = Plan {
@@ -400,7 +398,7 @@ impl ScalarRowFilter {
     }
 
     fn readout(&self, state: &[f64], index: usize, row: &mut [f64]) {
-        let n = self.order;
+        let n = self.dynamics.order;
         let h = self.lower.row(index);
         for (ell, x) in row.iter_mut().enumerate() {
             *x = (0..n).map(|a| h[a] * state[ell * n + a]).sum();
@@ -408,7 +406,7 @@ impl ScalarRowFilter {
     }
 
     fn apply_transition(&self, state: &mut [f64], transpose: bool) {
-        let n = self.order;
+        let n = self.dynamics.order;
         let s = if transpose {
             self.transition.transpose()
         } else {
@@ -436,7 +434,7 @@ impl ScalarRowFilter {
         weights: &[f64],
         start: &mut Option<SymmetricBand>,
     ) -> SymmetricBand {
-        let n = self.order;
+        let n = self.dynamics.order;
         if t > n {
             let mut a = plan.precision(t).clone();
             self.add_observation(&mut a, 0, |ell| weights[ell]);
@@ -457,7 +455,7 @@ impl ScalarRowFilter {
         smooth: bool,
     ) -> Result<()> {
         crate::vector_state::clear_upper_state();
-        let (w, n) = (self.width(), self.order);
+        let (w, n) = (self.width(), self.dynamics.order);
         let size = w * n;
         let mut state = vec![0.0; size];
         let mut info = vec![0.0; size];
@@ -511,11 +509,9 @@ impl ScalarRowFilter {
                 solve(&mut gain_in);
                 state.iter_mut().zip(&gain_in).for_each(|(s, g)| *s += g);
             }
-            if smooth {
-                systems.extend(system);
-            }
             self.readout(&state, observed(t), &mut out[(t - 1) * w..t * w]);
             if smooth {
+                systems.extend(system);
                 filtered[(t - 1) * size..t * size].copy_from_slice(&state);
             }
         }
