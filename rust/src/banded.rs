@@ -40,6 +40,17 @@ impl SymmetricBand {
         self.data[at] += value;
     }
 
+    /// Entry (i, k) of the lower band: i − bandwidth ≤ k ≤ i.
+    #[inline(always)]
+    pub(crate) fn lower_entry(&self, i: usize, k: usize) -> f64 {
+        self.data[self.index(i, k)]
+    }
+
+    /// Bandwidth (number of sub-diagonals).
+    pub fn bandwidth(&self) -> usize {
+        self.bandwidth
+    }
+
     /// Entry (i, k) (zero outside the band).
     pub fn get(&self, i: usize, k: usize) -> f64 {
         let (i, k) = if i >= k { (i, k) } else { (k, i) };
@@ -65,23 +76,6 @@ impl SymmetricBand {
             }
             y[i] += acc + row[b] * x[i];
         }
-    }
-
-    /// The bare Cholesky factor, with no solve plan (pre-scaled coefficients, segment
-    /// responses) to build: for systems that change with every right-hand side (the
-    /// weighted rows of the row filter).
-    pub fn plain_cholesky(self) -> Result<PlainCholesky> {
-        let mut data = self.data;
-        factor_in_place(&mut data, self.size, self.bandwidth)?;
-        let b = self.bandwidth;
-        let inverse_diagonal = (0..self.size)
-            .map(|i| 1.0 / data[i * (b + 1) + b])
-            .collect();
-        Ok(PlainCholesky {
-            bandwidth: b,
-            data,
-            inverse_diagonal,
-        })
     }
 
     /// The Cholesky factor L (A = L Lᵀ), same band storage.
@@ -127,34 +121,9 @@ impl SymmetricBand {
     }
 }
 
-/// Lower Cholesky factor of a [`SymmetricBand`] solved by plain substitutions.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlainCholesky {
-    bandwidth: usize,
-    data: Vec<f64>,
-    inverse_diagonal: Vec<f64>,
-}
-
-impl PlainCholesky {
-    /// Solves A x = rhs in place.
-    pub fn solve_in_place(&self, x: &mut [f64]) {
-        substitute_plain(&self.data, &self.inverse_diagonal, self.bandwidth, x);
-    }
-}
-
-/// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan;
-/// the row filters' small bandwidths get their own inlined copy (unrolled inner loops).
+/// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan
+/// (the bandwidths without an unrolled kernel).
 fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
-    match b {
-        1 => substitute_plain_with(l, inv, 1, x),
-        2 => substitute_plain_with(l, inv, 2, x),
-        3 => substitute_plain_with(l, inv, 3, x),
-        _ => substitute_plain_with(l, inv, b, x),
-    }
-}
-
-#[inline(always)]
-fn substitute_plain_with(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
     let n = inv.len();
     for i in 0..n {
         let first = i.saturating_sub(b);
@@ -171,19 +140,8 @@ fn substitute_plain_with(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
     }
 }
 
-/// Band Cholesky in place (lower band stored row by row, see [`SymmetricBand`]); small
-/// bandwidths get their own inlined copy (unrolled inner loops).
+/// Band Cholesky in place (lower band stored row by row, see [`SymmetricBand`]).
 fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
-    match b {
-        1 => factor_with(l, n, 1),
-        2 => factor_with(l, n, 2),
-        3 => factor_with(l, n, 3),
-        _ => factor_with(l, n, b),
-    }
-}
-
-#[inline(always)]
-fn factor_with(l: &mut [f64], n: usize, b: usize) -> Result<()> {
     for i in 0..n {
         let first = i.saturating_sub(b);
         for k in first..=i {
@@ -224,7 +182,7 @@ pub struct BandCholesky {
 }
 
 /// Whether the fused build of the solve kernels can run on this CPU.
-fn fused_available() -> bool {
+pub(crate) fn fused_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
@@ -238,7 +196,7 @@ fn fused_available() -> bool {
 /// The arithmetic of the solve kernels. The crate is built for baseline x86-64, where
 /// `mul_add` would be a slow library call and Rust never contracts `a * b + c` by itself,
 /// so the kernels are generic over it and instantiated fused only under `target_feature`.
-trait Arith {
+pub(crate) trait Arith {
     /// c − a·b.
     fn sub_product(c: f64, a: f64, b: f64) -> f64;
     /// c + a·b.
@@ -246,11 +204,11 @@ trait Arith {
 }
 
 /// Separate multiply and add (portable).
-struct Plain;
+pub(crate) struct Plain;
 
 /// Fused multiply-add: only instantiated inside [`BandCholesky::solve_fused`].
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-struct Fused;
+pub(crate) struct Fused;
 
 impl Arith for Plain {
     #[inline(always)]
@@ -423,37 +381,11 @@ impl BandCholesky {
             return;
         }
         let n = self.size;
+        let inv = |i: usize| self.inverse_diagonal[i];
         let mut window = [0.0; B];
-        self.substitute::<A, B, false>(x, &self.forward, 0, n, &mut window);
+        substitute::<A, B, false>(x, slots(&self.forward), inv, 0, n, &mut window);
         let mut window = [0.0; B];
-        self.substitute::<A, B, true>(x, &self.backward, 0, n, &mut window);
-    }
-
-    /// One substitution over the positions [start, end) of its order (position p is x[p],
-    /// or x[n − 1 − p] when `REV`): y_p = x_p / L_pp − Σ_m coef_p[m] y_{p−B+m}, `window`
-    /// holding y_{p−B..p} (oldest first).
-    #[inline(always)]
-    fn substitute<A: Arith, const B: usize, const REV: bool>(
-        &self,
-        x: &mut [f64],
-        coef: &[f64],
-        start: usize,
-        end: usize,
-        window: &mut [f64; B],
-    ) {
-        let n = self.size;
-        for p in start..end {
-            let i = if REV { n - 1 - p } else { p };
-            let c: &[f64; B] = coef[i * B..(i + 1) * B].try_into().unwrap();
-            // the newest window entry last: it alone is on the latency chain
-            let mut acc = x[i] * self.inverse_diagonal[i];
-            for m in 0..B {
-                acc = A::sub_product(acc, c[m], window[m]);
-            }
-            x[i] = acc;
-            window.rotate_left(1);
-            window[B - 1] = acc;
-        }
+        substitute::<A, B, true>(x, slots(&self.backward), inv, 0, n, &mut window);
     }
 
     /// The substitution on the LANES segments at once from zero windows, then the
@@ -501,8 +433,43 @@ impl BandCholesky {
             }
         }
         let mut last = segment_end::<A, B>(&windows, direction, LANES - 1, &entering);
-        self.substitute::<A, B, REV>(x, coef, LANES * span, n, &mut last);
+        let inv = |i: usize| self.inverse_diagonal[i];
+        substitute::<A, B, REV>(x, slots(coef), inv, LANES * span, n, &mut last);
     }
+}
+
+/// One substitution over the positions [start, end) of its order (position p is x[p], or
+/// x[n − 1 − p] when `REV`): y_p = x_p · scale(p's index) − Σ_m coef_p[m] y_{p−B+m},
+/// `window` holding y_{p−B..p} (oldest first), `coef(i)` the B coefficients of x[i]. Shared by the Cholesky solves (scale 1/L_ii,
+/// pre-scaled coefficients) and the LDLᵀ solves of `band_ldl` (scale 1, then 1/D_ii).
+#[inline(always)]
+pub(crate) fn substitute<A: Arith, const B: usize, const REV: bool>(
+    x: &mut [f64],
+    coef: impl Fn(usize) -> [f64; B],
+    scale: impl Fn(usize) -> f64,
+    start: usize,
+    end: usize,
+    window: &mut [f64; B],
+) {
+    let n = x.len();
+    for p in start..end {
+        let i = if REV { n - 1 - p } else { p };
+        let c = coef(i);
+        // the newest window entry last: it alone is on the latency chain
+        let mut acc = x[i] * scale(i);
+        for m in 0..B {
+            acc = A::sub_product(acc, c[m], window[m]);
+        }
+        x[i] = acc;
+        window.rotate_left(1);
+        window[B - 1] = acc;
+    }
+}
+
+/// The coefficients of x[i] in a substitution whose B per position are stored contiguously.
+#[inline(always)]
+fn slots<const B: usize>(coef: &[f64]) -> impl Fn(usize) -> [f64; B] + '_ {
+    move |i| coef[i * B..(i + 1) * B].try_into().unwrap()
 }
 
 /// One step of the LANES segments: `c` holds 1/L_ii and the coefficients (see
@@ -694,13 +661,16 @@ mod tests {
     }
 
     #[test]
-    fn plain_and_planned_solves_agree() {
+    fn ldl_and_planned_solves_agree() {
         for (n, b) in [(9usize, 2usize), (300, 2), (300, 7)] {
             let a = test_matrix(n, b);
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
             let (mut x, mut y) = (rhs.clone(), rhs);
             a.cholesky().unwrap().solve_in_place(&mut x);
-            a.clone().plain_cholesky().unwrap().solve_in_place(&mut y);
+            let zero = vec![[0.0; crate::band_ldl::LANES]; n];
+            let mut ldl = crate::band_ldl::BandLdlBatch::new(n, b);
+            ldl.factor([&a; crate::band_ldl::LANES], &zero, 1).unwrap();
+            ldl.solve_in_place(5, &mut y);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
         }
     }

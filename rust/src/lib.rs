@@ -7,6 +7,7 @@ pub mod anisotropy;
 pub mod axis_lines;
 pub mod axis_model;
 pub mod axis_modes;
+pub mod band_ldl;
 pub mod banded;
 pub mod branching;
 pub mod cascade;

@@ -25,7 +25,7 @@ pub fn local_moments(
             z.len()
         )));
     }
-    if z.iter().any(|v| !v.is_finite()) {
+    if !crate::vector_row_filter::all_finite(z) {
         return Err(FieldError::NonFinite(
             "the image holds NaN or infinite pixels".into(),
         ));
@@ -41,44 +41,44 @@ pub fn local_moments(
 }
 
 fn frame_moments(z: &[f64], h: usize, w: usize, r: usize, mean: &mut [f64], var: &mut [f64]) {
-    let shift = z.iter().sum::<f64>() / z.len() as f64;
-    // box sums along the rows, of z − shift (into mean) and its square (into var)
-    for (row, (m, v)) in z
-        .chunks_exact(w)
-        .zip(mean.chunks_exact_mut(w).zip(var.chunks_exact_mut(w)))
-    {
-        box_sums(row.iter().map(|x| x - shift), r, m);
-        box_sums(row.iter().map(|x| (x - shift) * (x - shift)), r, v);
-    }
-    // then along the columns: a running sum of whole rows (contiguous, vectorised)
-    for out in [&mut *mean, &mut *var] {
-        let rows = out.to_vec();
-        let mut window = vec![0.0; w];
-        for i in 0..(h + r) {
-            if i < h {
-                add_row(&mut window, &rows[i * w..(i + 1) * w], 1.0);
-            }
-            if i > 2 * r && i - 2 * r - 1 < h {
-                add_row(
-                    &mut window,
-                    &rows[(i - 2 * r - 1) * w..(i - 2 * r) * w],
-                    -1.0,
-                );
-            }
-            if i >= r {
-                out[(i - r) * w..(i - r + 1) * w].copy_from_slice(&window);
-            }
+    let shift = sum(z) / z.len() as f64;
+    let column_counts: Vec<f64> = (0..w)
+        .map(|c| ((c + r).min(w - 1) + 1 - c.saturating_sub(r)) as f64)
+        .collect();
+    // the box sums along the rows (of z − shift and its square) of the 2r + 1 rows in the
+    // window, in a ring; the window's column sums are running sums of whole rows
+    let span = 2 * r + 1;
+    let (mut ring_sum, mut ring_square) = (vec![0.0; span * w], vec![0.0; span * w]);
+    let (mut window_sum, mut window_square) = (vec![0.0; w], vec![0.0; w]);
+    for i in 0..(h + r) {
+        if i > 2 * r && i - 2 * r - 1 < h {
+            let old = (i - 2 * r - 1) % span * w..((i - 2 * r - 1) % span + 1) * w;
+            add_row(&mut window_sum, &ring_sum[old.clone()], -1.0);
+            add_row(&mut window_square, &ring_square[old], -1.0);
         }
-    }
-    for i in 0..h {
-        let rows = (i + r).min(h - 1) + 1 - i.saturating_sub(r);
-        for c in 0..w {
-            let cols = (c + r).min(w - 1) + 1 - c.saturating_sub(r);
-            let count = (rows * cols) as f64;
-            let k = i * w + c;
-            let m = mean[k] / count;
-            var[k] = (var[k] / count - m * m).max(0.0);
-            mean[k] = m + shift;
+        if i < h {
+            let slot = i % span * w..(i % span + 1) * w;
+            let (s, q) = (&mut ring_sum[slot.clone()], &mut ring_square[slot]);
+            row_box_sums(&z[i * w..(i + 1) * w], shift, r, s, q);
+            add_row(&mut window_sum, s, 1.0);
+            add_row(&mut window_square, q, 1.0);
+        }
+        if i >= r {
+            let out = i - r;
+            let rows = ((out + r).min(h - 1) + 1 - out.saturating_sub(r)) as f64;
+            let at = out * w..(out + 1) * w;
+            for ((((m, v), s), q), cols) in mean[at.clone()]
+                .iter_mut()
+                .zip(&mut var[at])
+                .zip(&window_sum)
+                .zip(&window_square)
+                .zip(&column_counts)
+            {
+                let inverse = 1.0 / (rows * cols);
+                let centred = s * inverse;
+                *v = (q * inverse - centred * centred).max(0.0);
+                *m = centred + shift;
+            }
         }
     }
 }
@@ -87,19 +87,51 @@ fn add_row(window: &mut [f64], row: &[f64], sign: f64) {
     window.iter_mut().zip(row).for_each(|(s, v)| *s += sign * v);
 }
 
-/// out[i] = Σ_{|j−i| ≤ r, 0 ≤ j < n} x[j] by a running sum.
-fn box_sums(x: impl Iterator<Item = f64>, r: usize, out: &mut [f64]) {
-    let n = out.len();
-    let mut prefix = Vec::with_capacity(n + 1);
-    prefix.push(0.0);
-    let mut acc = 0.0;
-    for v in x {
-        acc += v;
-        prefix.push(acc);
+/// sum[c] = Σ_{|j−c| ≤ r, 0 ≤ j < n} (x_j − shift) and square[c] the same of (x_j − shift)²,
+/// by sliding sums (one addition per sum on the latency chain).
+fn row_box_sums(x: &[f64], shift: f64, r: usize, sum: &mut [f64], square: &mut [f64]) {
+    let n = x.len();
+    let centred = |j: usize| x[j] - shift;
+    let (mut s, mut q) = (0.0, 0.0);
+    for j in 0..r.min(n) {
+        s += centred(j);
+        q += centred(j) * centred(j);
     }
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = prefix[(i + r + 1).min(n)] - prefix[i.saturating_sub(r)];
+    let mut emit = |c: usize, ds: f64, dq: f64| {
+        s += ds;
+        q += dq;
+        sum[c] = s;
+        square[c] = q;
+    };
+    // columns c ≤ r gain x_{c+r}; then each gains x_{c+r} and loses x_{c−r−1}; the last r
+    // only lose
+    let head = (r + 1).min(n);
+    let tail = (n.saturating_sub(r)).max(head);
+    for c in 0..head {
+        let v = if c + r < n { centred(c + r) } else { 0.0 };
+        emit(c, v, v * v);
     }
+    for c in head..tail {
+        let (v, u) = (centred(c + r), centred(c - r - 1));
+        emit(c, v - u, v * v - u * u);
+    }
+    for c in tail..n {
+        let u = centred(c - r - 1);
+        emit(c, -u, -(u * u));
+    }
+}
+
+/// Σ x with LANES independent accumulators (a single one is a chain of additions).
+fn sum(x: &[f64]) -> f64 {
+    const LANES: usize = 8;
+    let mut acc = [0.0; LANES];
+    let mut blocks = x.chunks_exact(LANES);
+    for block in &mut blocks {
+        for (a, v) in acc.iter_mut().zip(block) {
+            *a += v;
+        }
+    }
+    acc.iter().sum::<f64>() + blocks.remainder().iter().sum::<f64>()
 }
 
 #[cfg(test)]

@@ -73,6 +73,11 @@ impl RowModes {
         }
     }
 
+    /// Whether the band is Toeplitz (the same blocks at every column of the row).
+    pub fn is_toeplitz(&self) -> bool {
+        matches!(self, Self::Toeplitz { .. })
+    }
+
     /// Row width W.
     pub fn width(&self) -> usize {
         match self {

@@ -21,7 +21,8 @@
 //! variant refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row (the model Λ_k stays the one fitted
 //! for the nominal noise variance).
 
-use crate::banded::{BandCholesky, PlainCholesky, SymmetricBand};
+use crate::band_ldl::{BandLdlBatch, LANES};
+use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_modes::RowModes;
@@ -29,6 +30,7 @@ use crate::vector_row_filter::{check_images, ModeCovariance, RowDynamics, Small,
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
 /// Relative change of the band below which the row model is frozen.
@@ -179,44 +181,34 @@ impl ScalarRowFilter {
     }
 
     /// Λ = Lᵀ D⁻¹ L of the block AR(m) model fitted to the band (interleaved (ℓ, i) ↦ ℓn+i).
+    /// A Toeplitz band gives the same contribution for every column with a full past, so it
+    /// is computed once per past length.
     fn precision(&self, band: &[Mat<f64>]) -> Result<SymmetricBand> {
         let (w, n) = (self.width(), self.dynamics.order);
         let mut out = SymmetricBand::zeros(w * n, self.bandwidth());
+        let mut by_past: Vec<Option<DMatrix<f64>>> = vec![None; self.ar_order + 1];
         for ell in 0..w {
-            let past: Vec<usize> = (ell.saturating_sub(self.ar_order)..ell).rev().collect();
-            let k = past.len();
-            let mut blocks = vec![(ell, DMatrix::<f64>::identity(n, n))];
-            let mut noise = self.block(band, ell, ell);
-            if k > 0 {
-                let cpp = DMatrix::from_fn(k * n, k * n, |r, c| {
-                    self.block(band, past[r / n], past[c / n])[(r % n, c % n)]
-                });
-                let clp = DMatrix::from_fn(n, k * n, |r, c| {
-                    self.block(band, ell, past[c / n])[(r, c % n)]
-                });
-                let gamma_t = cpp
-                    .clone()
-                    .cholesky()
-                    .map(|ch| ch.solve(&clp.transpose()))
-                    .or_else(|| cpp.lu().solve(&clp.transpose()))
-                    .ok_or_else(singular_model)?;
-                let gamma = gamma_t.transpose();
-                noise -= &gamma * clp.transpose();
-                for (i, col) in past.iter().enumerate() {
-                    blocks.push((*col, -gamma.columns(i * n, n).into_owned()));
+            let k = ell.min(self.ar_order);
+            let computed;
+            let q = match &by_past[k] {
+                Some(q) => q,
+                None => {
+                    computed = self.column_contribution(band, ell)?;
+                    if self.modes.is_toeplitz() {
+                        by_past[k] = Some(computed.clone());
+                    }
+                    &computed
                 }
-            }
-            let noise = (&noise + noise.transpose()) * 0.5;
-            let inverse = noise.try_inverse().ok_or_else(singular_model)?;
-            for (cp, bp) in &blocks {
-                let left = bp.transpose() * &inverse;
-                for (cq, bq) in &blocks {
-                    let entry = &left * bq;
+            };
+            // columns ℓ, ℓ − 1, …, ℓ − k of the contribution, each n wide
+            let column = |p: usize, r: usize| (ell - p) * n + r;
+            for p in 0..=k {
+                for q_col in 0..=k {
                     for r in 0..n {
                         for c in 0..n {
-                            let (gi, gk) = (cp * n + r, cq * n + c);
+                            let (gi, gk) = (column(p, r), column(q_col, c));
                             if gi >= gk {
-                                out.add(gi, gk, entry[(r, c)]);
+                                out.add(gi, gk, q[(p * n + r, q_col * n + c)]);
                             }
                         }
                     }
@@ -224,6 +216,38 @@ impl ScalarRowFilter {
             }
         }
         Ok(out)
+    }
+
+    /// Column ℓ's term Bᵀ D⁻¹ B of Λ, B = [I, −Γ_ℓ] over the columns ℓ, ℓ − 1, …, ℓ − k
+    /// (k = min(ℓ, m)): Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹, D = C_ℓℓ − Γ_ℓ C_{past,ℓ}
+    /// ([P 3.11, 3.12, 3.34–3.36]).
+    fn column_contribution(&self, band: &[Mat<f64>], ell: usize) -> Result<DMatrix<f64>> {
+        let n = self.dynamics.order;
+        let past: Vec<usize> = (ell.saturating_sub(self.ar_order)..ell).rev().collect();
+        let k = past.len();
+        let mut b = DMatrix::<f64>::zeros(n, (k + 1) * n);
+        b.view_mut((0, 0), (n, n)).fill_with_identity();
+        let mut noise = self.block(band, ell, ell);
+        if k > 0 {
+            let cpp = DMatrix::from_fn(k * n, k * n, |r, c| {
+                self.block(band, past[r / n], past[c / n])[(r % n, c % n)]
+            });
+            let clp = DMatrix::from_fn(n, k * n, |r, c| {
+                self.block(band, ell, past[c / n])[(r, c % n)]
+            });
+            let gamma_t = cpp
+                .clone()
+                .cholesky()
+                .map(|ch| ch.solve(&clp.transpose()))
+                .or_else(|| cpp.lu().solve(&clp.transpose()))
+                .ok_or_else(singular_model)?;
+            let gamma = gamma_t.transpose();
+            noise -= &gamma * clp.transpose();
+            b.view_mut((0, n), (n, k * n)).copy_from(&(-gamma));
+        }
+        let noise = (&noise + noise.transpose()) * 0.5;
+        let inverse = noise.try_inverse().ok_or_else(singular_model)?;
+        Ok(b.transpose() * inverse * b)
     }
 
     /// A = Λ + I_W ⊗ h hᵀ/σ_θ² for each observed row h in `observed`.
@@ -363,7 +387,7 @@ impl ScalarRowFilter {
             })
     }
 
-    /// Sizes, finite pixels; with weights: finite weights ≥ 0, finite pixels where > 0.
+    /// Sizes; without weights, finite pixels (with weights, see `check_weighted_row`).
     fn check(
         &self,
         z: &[f64],
@@ -381,15 +405,25 @@ impl ScalarRowFilter {
                 weights.len()
             )));
         }
-        if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+        Ok(())
+    }
+
+    /// The weighted rows' values (checked row by row as the filter reaches them, while they
+    /// are in cache): weights finite and ≥ 0, pixels finite where the weight is > 0.
+    fn check_weighted_row(row: &[f64], weights: &[f64]) -> Result<()> {
+        let valid = weights
+            .iter()
+            .fold(true, |ok, w| ok & (*w >= 0.0) & w.is_finite());
+        if !valid {
             return Err(FieldError::InvalidParameter(
                 "the pixel weights (1/noise variance) must be finite and ≥ 0".into(),
             ));
         }
-        if z.iter()
+        let observed_finite = row
+            .iter()
             .zip(weights)
-            .any(|(v, w)| *w > 0.0 && !v.is_finite())
-        {
+            .fold(true, |ok, (v, w)| ok & (v.is_finite() | (*w == 0.0)));
+        if !observed_finite {
             return Err(FieldError::NonFinite(
                 "a pixel with a finite noise variance is NaN or infinite".into(),
             ));
@@ -426,23 +460,42 @@ impl ScalarRowFilter {
         }
     }
 
-    /// A_t of a weighted row: the start rows accumulate their observations in `start`.
-    fn weighted_system(
+    /// Factors the weighted systems A_t of rows t ∈ `rows` (1-based, at most LANES; spare
+    /// lanes repeat the last row) into `batch`, one lane per row: Λ_t plus Σ_ℓ w_sℓ h_s h_sᵀ
+    /// over the rows s observed in the state at t (start rows t ≤ n: s = 1..t, observed
+    /// through state row n − s; later rows: s = t, through state row 0).
+    fn weighted_factors(
         &self,
         plan: &Plan,
-        t: usize,
+        rows: Range<usize>,
+        z: &[f64],
         weights: &[f64],
-        start: &mut Option<SymmetricBand>,
-    ) -> SymmetricBand {
-        let n = self.dynamics.order;
-        if t > n {
-            let mut a = plan.precision(t).clone();
-            self.add_observation(&mut a, 0, |ell| weights[ell]);
-            return a;
+        batch: &mut BandLdlBatch,
+    ) -> Result<()> {
+        let (w, n) = (self.width(), self.dynamics.order);
+        let lane_row = |j: usize| (rows.start + j).min(rows.end - 1);
+        let mut blocks = vec![[0.0; LANES]; w * n * n];
+        for j in 0..LANES {
+            let t = lane_row(j);
+            let observed = if t > n { t..=t } else { 1..=t };
+            for s in observed {
+                let at = (s - 1) * w..s * w;
+                Self::check_weighted_row(&z[at.clone()], &weights[at.clone()])?;
+                let h = self.lower.row(n.saturating_sub(s));
+                for (block, &r) in blocks.chunks_exact_mut(n * n).zip(&weights[at]) {
+                    for a in 0..n {
+                        for c in 0..n {
+                            block[a * n + c][j] += h[a] * h[c] * r;
+                        }
+                    }
+                }
+            }
         }
-        let a = start.get_or_insert_with(|| plan.precision(1).clone());
-        self.add_observation(a, n - t, |ell| weights[ell]);
-        a.clone()
+        batch.factor(
+            std::array::from_fn(|j| plan.precision(lane_row(j))),
+            &blocks,
+            n,
+        )
     }
 
     fn run(
@@ -465,26 +518,20 @@ impl ScalarRowFilter {
         } else {
             Vec::new()
         };
-        // weighted rows: the factor of A_t per row (kept for the RTS pass), the start's sum
-        let mut systems: Vec<PlainCholesky> = Vec::new();
-        let mut start = None;
+        // A_t x = rhs: the plan's factor, or this row's weighted system
+        let mut weighted = weights.map(|all| WeightedRows::new(self, plan, z, all));
+        let mut solve = |t: usize, x: &mut [f64]| match weighted.as_mut() {
+            Some(rows) => rows.solve(t, x),
+            None => {
+                plan.factor(t).solve_in_place(x);
+                Ok(())
+            }
+        };
         let observed = |t: usize| n.saturating_sub(t);
         for t in 1..=height {
             let row = &z[(t - 1) * w..t * w];
             let row_weights = weights.map(|r| &r[(t - 1) * w..t * w]);
             let weight = |ell: usize| row_weights.map_or(1.0 / self.noise_var, |r| r[ell]);
-            let system = match row_weights {
-                Some(r) => Some(
-                    self.weighted_system(plan, t, r, &mut start)
-                        .plain_cholesky()?,
-                ),
-                None => None,
-            };
-            // A_t x = rhs: the plan's factor, or this row's weighted system
-            let solve = |x: &mut [f64]| match &system {
-                None => plan.factor(t).solve_in_place(x),
-                Some(a) => a.solve_in_place(x),
-            };
             if t <= n {
                 let h = self.lower.row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
@@ -496,7 +543,7 @@ impl ScalarRowFilter {
                     }
                 }
                 state.copy_from_slice(&info);
-                solve(&mut state);
+                solve(t, &mut state)?;
             } else {
                 self.apply_transition(&mut state, false);
                 gain_in.fill(0.0);
@@ -506,12 +553,11 @@ impl ScalarRowFilter {
                         gain_in[ell * n] = (zl - state[ell * n]) * r_ell;
                     }
                 }
-                solve(&mut gain_in);
+                solve(t, &mut gain_in)?;
                 state.iter_mut().zip(&gain_in).for_each(|(s, g)| *s += g);
             }
             self.readout(&state, observed(t), &mut out[(t - 1) * w..t * w]);
             if smooth {
-                systems.extend(system);
                 filtered[(t - 1) * size..t * size].copy_from_slice(&state);
             }
         }
@@ -532,11 +578,7 @@ impl ScalarRowFilter {
                 .for_each(|(p, s)| *p = s - *p);
             plan.precision(t + 1).mul_vec(&predicted, &mut d);
             self.apply_transition(&mut d, true);
-            if weights.is_some() {
-                systems[t - 1].solve_in_place(&mut d);
-            } else {
-                plan.factor(t).solve_in_place(&mut d);
-            }
+            solve(t, &mut d)?;
             smoothed
                 .iter_mut()
                 .zip(filt.iter().zip(&d))
@@ -546,6 +588,48 @@ impl ScalarRowFilter {
         for t in 1..first {
             self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
         }
+        Ok(())
+    }
+}
+
+/// The factors of the weighted rows' systems, made LANES rows at a time as the passes reach
+/// them (the RTS pass refactors rather than keeping a factor per row).
+struct WeightedRows<'a> {
+    filter: &'a ScalarRowFilter,
+    plan: &'a Plan,
+    z: &'a [f64],
+    weights: &'a [f64],
+    height: usize,
+    /// First row (1-based) of the rows in `batch`; 0: none.
+    first: usize,
+    batch: BandLdlBatch,
+}
+
+impl<'a> WeightedRows<'a> {
+    fn new(filter: &'a ScalarRowFilter, plan: &'a Plan, z: &'a [f64], weights: &'a [f64]) -> Self {
+        let size = filter.width() * filter.dynamics.order;
+        Self {
+            filter,
+            plan,
+            z,
+            weights,
+            height: weights.len() / filter.width(),
+            first: 0,
+            batch: BandLdlBatch::new(size, filter.bandwidth()),
+        }
+    }
+
+    /// Solves A_t x = rhs (1-based row t).
+    fn solve(&mut self, t: usize, x: &mut [f64]) -> Result<()> {
+        let first = (t - 1) / LANES * LANES + 1;
+        if first != self.first {
+            self.first = 0;
+            let rows = first..(first + LANES).min(self.height + 1);
+            self.filter
+                .weighted_factors(self.plan, rows, self.z, self.weights, &mut self.batch)?;
+            self.first = first;
+        }
+        self.batch.solve_in_place(t - first, x);
         Ok(())
     }
 }

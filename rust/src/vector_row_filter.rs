@@ -430,12 +430,19 @@ pub(crate) fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()
             z.len()
         )));
     }
-    if z.iter().any(|v| !v.is_finite()) {
+    if !all_finite(z) {
         return Err(FieldError::NonFinite(
             "the images hold NaN or infinite pixels (the row filters need every pixel)".into(),
         ));
     }
     Ok(())
+}
+
+/// Whether every value is finite (a branch-free fold per block: vectorised).
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    values
+        .chunks(4096)
+        .all(|block| block.iter().fold(true, |ok, v| ok & v.is_finite()))
 }
 
 /// The (row, column) axes of a 2-axis model with n_y ≤ 4.
