@@ -9,6 +9,7 @@ import pytest
 import kalmanfield as kf
 from kalmanfield.denoise import local_moments
 from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.adaptive_denoise import adaptive_denoise as ref_adaptive
 from kalmanfield.reference.local_moments import local_moments as ref_local_moments
 
 CASES = [((0.9, 0.8), (1, 1)), ((0.85, 0.9), (2, 2)), ((0.7, 0.95), (1, 2)), ((0.8, 0.6), (3, 1))]
@@ -167,12 +168,28 @@ def test_adaptive_denoise_beats_the_adaptive_wiener_filter(name):
     assert psnr(kf.denoise(z, noise_var=0.01), clean) > theirs + 0.5
 
 
+@pytest.mark.parametrize("smooth", [False, True])
+@pytest.mark.parametrize("rho,order,radius", [((0.7, 0.7), (1, 1), 2), ((0.8, 0.6), (2, 1), 1)])
+def test_adaptive_denoise_equals_reference(rho, order, radius, smooth):
+    """The Rust kernel of the adaptive mode vs its NumPy twin, on an image with edges."""
+    rng = np.random.default_rng(sum(order))
+    clean = np.add.outer(np.sin(0.3 * np.arange(19)), 2.0 * (np.arange(23) > 11))
+    z = clean + 0.3 * rng.standard_normal(clean.shape)
+    model = kf.ARFieldModel(list(rho), list(order))
+    got = kf.denoise(z, noise_var=0.09, model=model, smooth=smooth, window=2 * radius + 1)
+    want = ref_adaptive(z, 0.09, rho, order, radius, smooth=smooth)
+    np.testing.assert_allclose(got, want, atol=1e-10, rtol=0)
+    assert np.mean((got - clean) ** 2) < 0.5 * np.mean((z - clean) ** 2)
+
+
 def test_adaptive_denoise_of_a_stack_is_per_frame():
     rng = np.random.default_rng(4)
     frames = np.cumsum(rng.standard_normal((2, 24, 20)), axis=2)
     stack = kf.denoise(frames, noise_var=0.5)
     for f in range(2):
-        np.testing.assert_allclose(stack[f], kf.denoise(frames[f], noise_var=0.5), atol=1e-12)
+        np.testing.assert_array_equal(stack[f], kf.denoise(frames[f], noise_var=0.5))
+    # frames run in parallel: the same bits with one thread
+    np.testing.assert_array_equal(stack, kf.denoise(frames, noise_var=0.5, threads=1))
 
 
 def test_bad_input():
@@ -201,3 +218,10 @@ def test_bad_input():
         local_moments(z, 2.5)
     with pytest.raises(ValueError):
         local_moments(np.full((4, 4), np.nan), 3)
+    noisy = np.random.default_rng(0).standard_normal((8, 8))
+    with pytest.raises(ValueError, match="window"):
+        kf.denoise(noisy, window=4)
+    with pytest.raises(ValueError, match="2 axes"):
+        kf.denoise(noisy, model=kf.ARFieldModel([0.7], [1]))
+    with pytest.raises(ValueError, match="NaN"):
+        kf.denoise(np.where(noisy > 1, np.nan, noisy), noise_var=1.0)

@@ -102,6 +102,19 @@ def local_moments_into(
     mean: npt.NDArray[np.float64],
     var: npt.NDArray[np.float64],
 ) -> None: ...
+def adaptive_denoise_into(
+    z: npt.NDArray[np.float64],
+    noise_var: float,
+    model: FieldModel,
+    radius: int,
+    smooth: bool,
+    out: npt.NDArray[np.float64],
+    threads: int | None = None,
+) -> None: ...
+
+SIGNAL_FLOOR: float
+NOMINAL_SAMPLE: int
+
 def wiener_bound(model: FieldModel, noise_var: float, height: int, width: int) -> float: ...
 def wiener_map(
     model: FieldModel, noise_var: float, height: int, width: int

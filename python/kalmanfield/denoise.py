@@ -19,21 +19,23 @@ _LAGS = 12
 #: Model of the normalised detail field of the adaptive denoiser (see :func:`denoise`),
 #: chosen on scikit-image training images other than the benchmark's (README).
 DETAIL_MODEL = ARFieldModel([0.7, 0.7], [1, 1])
-#: Floor of the local signal variance, in units of the noise variance.
-_SIGNAL_FLOOR = 0.01
 
 
 def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.ndarray]:
     """(mean, variance) of every pixel's window × window box (odd `window`; the box is cut
     at the borders), for an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel."""
     z = images(image, np.shape(image)[-1])
+    _odd_window(window)
+    mean, var = np.empty_like(z), np.empty_like(z)
+    _core.local_moments_into(z, int(window) // 2, mean, var)
+    return mean, var
+
+
+def _odd_window(window: object) -> None:
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
         raise TypeError(f"window must be an odd integer, got {window!r}")
     if window < 1 or window % 2 == 0:
         raise ValueError(f"window must be a positive odd integer, got {window}")
-    mean, var = np.empty_like(z), np.empty_like(z)
-    _core.local_moments_into(z, int(window) // 2, mean, var)
-    return mean, var
 
 
 def estimate_noise_var(image: npt.ArrayLike) -> float:
@@ -134,7 +136,10 @@ def denoise(
         per-pixel noise variance σ_θ²/σ(s)²: little smoothing on edges and texture, strong in
         flat areas; x̂ = μ + σ ξ̂. With ρ = 0 this is the adaptive (Lee) Wiener filter of
         ``scipy.signal.wiener``; the AR model of ξ adds the row-Kalman smoothing.
-        σ² is floored at 0.01 σ_θ².
+        σ² is floored at 0.01 σ_θ². The filter's nominal noise variance (which only sets its
+        prediction-error model) is 1/median(σ²/σ_θ²) over a regular sample of ≤ 2¹⁴ pixels.
+        One Rust kernel (``rust/src/adaptive_denoise.rs``; NumPy twin
+        ``reference.adaptive_denoise``); the frames of a stack run in parallel.
     adaptive=False : one stationary model for the whole image. `model`: the field model of x;
         None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1).
     method : "scalar" (:class:`ScalarRowFilter`, O(W) per row) or "vector"
@@ -168,20 +173,12 @@ def denoise(
 def _adaptive(
     z: np.ndarray, nv: float, model: ARFieldModel, window: int, smooth: bool, threads: int | None
 ) -> np.ndarray:
-    """x̂ = μ + σ ξ̂ of :func:`denoise`'s adaptive mode (frame by frame: each frame's nominal
-    noise ratio is its own)."""
-    if z.ndim == 3:
-        return np.stack([_adaptive(f, nv, model, window, smooth, threads) for f in z])
-    mu, var = local_moments(z, window)
-    scale = np.sqrt(np.maximum(var - nv, _SIGNAL_FLOOR * nv))
-    ratio = nv / scale**2
-    filt = ScalarRowFilter(
-        model,
-        float(np.median(ratio)),
-        z.shape[-1],
-        smooth=smooth,
-        threads=threads,
-        modes="toeplitz",
-    )
-    detail = filt.filter((z - mu) / scale, noise_var=ratio)
-    return mu + scale * detail
+    """x̂ = μ + σ ξ̂ of :func:`denoise`'s adaptive mode: one Rust kernel (local moments,
+    normalisation, weighted :class:`ScalarRowFilter` with Toeplitz modes), frames in
+    parallel, each with its own nominal noise ratio."""
+    _odd_window(window)
+    if model.ndim != 2:
+        raise ValueError(f"the detail model must have 2 axes (rows, columns), got {model.ndim}")
+    out = np.empty_like(z)
+    _core.adaptive_denoise_into(z, nv, model._core, int(window) // 2, smooth, out, threads)
+    return out

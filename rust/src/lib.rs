@@ -3,6 +3,7 @@
 //!
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
+pub mod adaptive_denoise;
 pub mod anisotropy;
 pub mod axis_lines;
 pub mod axis_model;

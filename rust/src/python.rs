@@ -517,6 +517,45 @@ fn local_moments_into(
     Ok(())
 }
 
+/// The adaptive denoiser (README "denoise") of an image (H, W) or a stack (F, H, W) into
+/// `out` (same shape), frames in parallel.
+#[pyfunction]
+#[pyo3(signature = (z, noise_var, model, radius, smooth, out, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn adaptive_denoise_into(
+    py: Python<'_>,
+    z: PyReadonlyArrayDyn<'_, f64>,
+    noise_var: f64,
+    model: &PyFieldModel,
+    radius: usize,
+    smooth: bool,
+    mut out: PyReadwriteArrayDyn<'_, f64>,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    let shape = z.shape().to_vec();
+    let (frames, height, width) = match shape.as_slice() {
+        [h, w] => (1, *h, *w),
+        [f, h, w] => (*f, *h, *w),
+        _ => return Err(PyValueError::new_err("z must be 2-D or 3-D")),
+    };
+    if out.shape() != shape.as_slice() {
+        return Err(PyValueError::new_err("out must have the shape of z"));
+    }
+    let values = contiguous(&z, "z")?;
+    let out = out
+        .as_slice_mut()
+        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
+    let model = &model.inner;
+    py.detach(|| {
+        with_threads(threads, || {
+            crate::adaptive_denoise::adaptive_denoise(
+                values, frames, height, width, noise_var, model, radius, smooth, out,
+            )
+        })
+    })??;
+    Ok(())
+}
+
 /// Mean error variance of the best linear estimator on a height × width grid (SPEC §2.4).
 #[pyfunction]
 fn wiener_bound(
@@ -553,6 +592,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
+    m.add_function(wrap_pyfunction!(adaptive_denoise_into, m)?)?;
+    m.add("SIGNAL_FLOOR", crate::adaptive_denoise::SIGNAL_FLOOR)?;
+    m.add("NOMINAL_SAMPLE", crate::adaptive_denoise::NOMINAL_SAMPLE)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;
     m.add_function(wrap_pyfunction!(lag_products, m)?)?;
     m.add_function(wrap_pyfunction!(whiten_axis_into, m)?)?;
