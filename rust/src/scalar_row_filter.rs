@@ -26,7 +26,7 @@ use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_modes::RowModes;
-use crate::vector_row_filter::{check_images, ModeCovariance, RowDynamics, Small, MAX_ROW_ORDER};
+use crate::vector_row_filter::{check_images, ModeCovariance, RowDynamics, Small};
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -431,32 +431,29 @@ impl ScalarRowFilter {
         Ok(())
     }
 
+    /// row[ℓ] = h · state_ℓ with h = row `index` of L (the image row held in that state row).
     fn readout(&self, state: &[f64], index: usize, row: &mut [f64]) {
-        let n = self.dynamics.order;
         let h = self.lower.row(index);
-        for (ell, x) in row.iter_mut().enumerate() {
-            *x = (0..n).map(|a| h[a] * state[ell * n + a]).sum();
+        match self.dynamics.order {
+            1 => readout_fixed::<1>(state, &[h[0]], row),
+            2 => readout_fixed::<2>(state, &[h[0], h[1]], row),
+            3 => readout_fixed::<3>(state, &[h[0], h[1], h[2]], row),
+            _ => readout_fixed::<4>(state, &[h[0], h[1], h[2], h[3]], row),
         }
     }
 
+    /// state_ℓ ← S state_ℓ (or Sᵀ) for every column ℓ, S the transition in the whitened basis.
     fn apply_transition(&self, state: &mut [f64], transpose: bool) {
-        let n = self.dynamics.order;
         let s = if transpose {
             self.transition.transpose()
         } else {
             self.transition
         };
-        if n == 1 {
-            let a = s[(0, 0)];
-            state.iter_mut().for_each(|v| *v *= a);
-            return;
-        }
-        for v in state.chunks_exact_mut(n) {
-            let mut old = [0.0; MAX_ROW_ORDER];
-            old[..n].copy_from_slice(v);
-            for (a, x) in v.iter_mut().enumerate() {
-                *x = (0..n).map(|b| s[(a, b)] * old[b]).sum();
-            }
+        match self.dynamics.order {
+            1 => transition_fixed::<1>(state, &s),
+            2 => transition_fixed::<2>(state, &s),
+            3 => transition_fixed::<3>(state, &s),
+            _ => transition_fixed::<4>(state, &s),
         }
     }
 
@@ -589,6 +586,24 @@ impl ScalarRowFilter {
             self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
         }
         Ok(())
+    }
+}
+
+#[inline(always)]
+fn readout_fixed<const N: usize>(state: &[f64], h: &[f64; N], row: &mut [f64]) {
+    for (x, v) in row.iter_mut().zip(state.chunks_exact(N)) {
+        *x = (0..N).map(|a| h[a] * v[a]).sum();
+    }
+}
+
+#[inline(always)]
+fn transition_fixed<const N: usize>(state: &mut [f64], s: &Small) {
+    let m: [[f64; N]; N] = std::array::from_fn(|a| std::array::from_fn(|b| s[(a, b)]));
+    for v in state.chunks_exact_mut(N) {
+        let old: [f64; N] = std::array::from_fn(|b| v[b]);
+        for (a, x) in v.iter_mut().enumerate() {
+            *x = (0..N).map(|b| m[a][b] * old[b]).sum();
+        }
     }
 }
 
