@@ -22,11 +22,11 @@
 //! for the nominal noise variance).
 
 use crate::band_ldl::{BandLdlBatch, LANES};
-use crate::banded::{BandCholesky, SymmetricBand};
+use crate::banded::{BandCholesky, DiagonalBand, SymmetricBand};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_modes::RowModes;
-use crate::vector_row_filter::{check_images, ModeCovariance, RowDynamics, Small};
+use crate::vector_row_filter::{all_finite, check_sizes, ModeCovariance, RowDynamics, Small};
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -56,6 +56,8 @@ struct Plan {
     rows: usize,
     settled: bool,
     precisions: Vec<SymmetricBand>,
+    /// The same by diagonals (the products of the RTS pass).
+    products: Vec<DiagonalBand>,
     factors: Vec<BandCholesky>,
     row_precision: Vec<usize>,
     row_factor: Vec<usize>,
@@ -64,6 +66,10 @@ struct Plan {
 impl Plan {
     fn precision(&self, t: usize) -> &SymmetricBand {
         &self.precisions[self.row_precision[t.min(self.rows) - 1]]
+    }
+
+    fn product(&self, t: usize) -> &DiagonalBand {
+        &self.products[self.row_precision[t.min(self.rows) - 1]]
     }
 
     fn factor(&self, t: usize) -> &BandCholesky {
@@ -293,6 +299,7 @@ impl ScalarRowFilter {
             rows: 0,
             settled: false,
             precisions: Vec::new(),
+            products: Vec::new(),
             factors: Vec::new(),
             row_precision: Vec::new(),
             row_factor: Vec::new(),
@@ -340,6 +347,7 @@ impl ScalarRowFilter {
                 break;
             }
         }
+        plan.products = plan.precisions.iter().map(DiagonalBand::new).collect();
         Ok(plan)
     }
 
@@ -387,7 +395,7 @@ impl ScalarRowFilter {
             })
     }
 
-    /// Sizes; without weights, finite pixels (with weights, see `check_weighted_row`).
+    /// Sizes (the values are checked row by row in `run`, while they are in cache).
     fn check(
         &self,
         z: &[f64],
@@ -396,7 +404,8 @@ impl ScalarRowFilter {
         expected: usize,
     ) -> Result<()> {
         let Some(weights) = weights else {
-            return check_images(z, out, expected);
+            // the values are checked row by row in `run`, while they are in cache
+            return check_sizes(z, out, expected);
         };
         if z.len() != expected || out.len() != expected || weights.len() != expected {
             return Err(FieldError::Shape(format!(
@@ -528,7 +537,15 @@ impl ScalarRowFilter {
         for t in 1..=height {
             let row = &z[(t - 1) * w..t * w];
             let row_weights = weights.map(|r| &r[(t - 1) * w..t * w]);
-            let weight = |ell: usize| row_weights.map_or(1.0 / self.noise_var, |r| r[ell]);
+            if weights.is_none() && !all_finite(row) {
+                return Err(FieldError::NonFinite(
+                    "the images hold NaN or infinite pixels (the row filters need every pixel)"
+                        .into(),
+                ));
+            }
+            // 1/σ_θ² per pixel; a pixel of weight 0 is ignored (its value may be NaN)
+            let nominal = [1.0 / self.noise_var];
+            let weight = |ell: usize| row_weights.map_or(nominal[0], |r| r[ell]);
             if t <= n {
                 let h = self.lower.row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
@@ -543,12 +560,26 @@ impl ScalarRowFilter {
                 solve(t, &mut state)?;
             } else {
                 self.apply_transition(&mut state, false);
-                gain_in.fill(0.0);
-                for (ell, zl) in row.iter().enumerate() {
-                    let r_ell = weight(ell);
-                    if r_ell > 0.0 {
-                        gain_in[ell * n] = (zl - state[ell * n]) * r_ell;
+                // the innovation enters through state row 0 only
+                let columns = gain_in.chunks_exact_mut(n).zip(state.chunks_exact(n));
+                match row_weights {
+                    None => {
+                        for ((g, s), zl) in columns.zip(row) {
+                            g[0] = (zl - s[0]) * nominal[0];
+                        }
                     }
+                    Some(r) => {
+                        for (((g, s), zl), r_ell) in columns.zip(row).zip(r) {
+                            g[0] = if *r_ell > 0.0 {
+                                (zl - s[0]) * r_ell
+                            } else {
+                                0.0
+                            };
+                        }
+                    }
+                }
+                if n > 1 {
+                    gain_in.chunks_exact_mut(n).for_each(|g| g[1..].fill(0.0));
                 }
                 solve(t, &mut gain_in)?;
                 state.iter_mut().zip(&gain_in).for_each(|(s, g)| *s += g);
@@ -573,7 +604,7 @@ impl ScalarRowFilter {
                 .iter_mut()
                 .zip(&smoothed)
                 .for_each(|(p, s)| *p = s - *p);
-            plan.precision(t + 1).mul_vec(&predicted, &mut d);
+            plan.product(t + 1).mul_vec(&predicted, &mut d);
             self.apply_transition(&mut d, true);
             solve(t, &mut d)?;
             smoothed

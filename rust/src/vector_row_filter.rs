@@ -424,16 +424,22 @@ fn max_change(old: &[[f64; MAX_ROW_ORDER]], new: &[[f64; MAX_ROW_ORDER]]) -> f64
 /// Input and output hold `expected` values and every pixel is finite (the row filters need
 /// every observation).
 pub(crate) fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
+    check_sizes(z, out, expected)?;
+    if !all_finite(z) {
+        return Err(FieldError::NonFinite(
+            "the images hold NaN or infinite pixels (the row filters need every pixel)".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Input and output hold `expected` values.
+pub(crate) fn check_sizes(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
     if z.len() != expected || out.len() != expected {
         return Err(FieldError::Shape(format!(
             "the images hold {} values, expected {expected}",
             z.len()
         )));
-    }
-    if !all_finite(z) {
-        return Err(FieldError::NonFinite(
-            "the images hold NaN or infinite pixels (the row filters need every pixel)".into(),
-        ));
     }
     Ok(())
 }
