@@ -1,5 +1,6 @@
 import os
 
+import numpy as np
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
@@ -7,3 +8,9 @@ settings.register_profile(
 )
 settings.register_profile("dev", max_examples=25, deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+def noisy(model, shape, noise_var, seed):
+    """(x, z = x + θ): a field of `model` and white noise of variance `noise_var`."""
+    x = model.sample(shape, seed=seed)
+    return x, x + np.sqrt(noise_var) * np.random.default_rng(seed).standard_normal(shape)

@@ -4,17 +4,12 @@ import pickle
 
 import numpy as np
 import pytest
+from conftest import noisy
 from hypothesis import given
 from hypothesis import strategies as st
 
 import kalmanfield as kf
 from kalmanfield.reference import row_filters as ref
-
-
-def noisy(model, shape, noise_var, seed):
-    rng = np.random.default_rng(seed)
-    x = model.sample(shape, seed=seed)
-    return x, x + np.sqrt(noise_var) * rng.standard_normal(shape)
 
 
 @given(

@@ -11,7 +11,7 @@ import numpy.typing as npt
 from . import _core
 from ._row_filter import images, positive_float
 from .ar_field_model import ARFieldModel
-from .identification import MAX_IDENTIFIED_ORDER, RHO_MAX, RHO_MIN
+from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
 from .scalar_row_filter import ScalarRowFilter
 from .vector_row_filter import VectorRowFilter
 
@@ -99,16 +99,12 @@ def _misfit(cov: np.ndarray, h: np.ndarray, n: int, rho: float) -> tuple[float, 
 
 
 def _best_rho(cov: np.ndarray, h: np.ndarray, n: int) -> tuple[float, float, float]:
-    """Coarse grid in -ln(1-ρ), then golden-section refinement: (misfit, ρ, σ²)."""
-    grid = 1 - np.exp(-np.linspace(-np.log1p(-RHO_MIN), -np.log1p(-RHO_MAX), 60))
-    errors = [_misfit(cov, h, n, float(r))[0] for r in grid]
-    k = int(np.argmin(errors))
-    lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
-    golden = (np.sqrt(5) - 1) / 2
-    for _ in range(40):
-        a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
-        lo, hi = (lo, b) if _misfit(cov, h, n, a)[0] < _misfit(cov, h, n, b)[0] else (a, hi)
-    rho = 0.5 * (lo + hi)
+    """argmin over ρ of the misfit (:func:`minimise_over_rho`): (misfit, ρ, σ²)."""
+
+    def misfits(rhos: np.ndarray) -> np.ndarray:
+        return np.array([_misfit(cov, h, n, float(r))[0] for r in rhos])
+
+    rho = minimise_over_rho(misfits, 60, 40)
     err, scale = _misfit(cov, h, n, rho)
     return err, rho, scale
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numbers
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from math import comb
 
@@ -241,19 +241,26 @@ def _prediction_error(gram: np.ndarray, rho: np.ndarray, n: int) -> np.ndarray:
     return np.einsum("ak,ab,bk->k", w, gram[: n + 1, : n + 1], w)
 
 
-def _best_rho(gram: np.ndarray, n: int) -> tuple[float, float]:
-    """argmin over ρ of the mean squared prediction error: a grid in -ln(1-ρ) (dense near 1),
-    then golden-section refinement in the best bracket."""
-    grid = 1 - np.exp(-np.linspace(-np.log1p(-RHO_MIN), -np.log1p(-RHO_MAX), 2001))
-    values = _prediction_error(gram, grid, n)
-    k = int(np.argmin(values))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+def minimise_over_rho(
+    objective: Callable[[np.ndarray], np.ndarray], points: int, iterations: int
+) -> float:
+    """argmin over ρ ∈ [RHO_MIN, RHO_MAX] of a vectorised `objective` (array of ρ → array of
+    values): a grid of `points` in -ln(1-ρ) (dense near 1), then `iterations` steps of
+    golden-section refinement in the best bracket."""
+    grid = 1 - np.exp(-np.linspace(-np.log1p(-RHO_MIN), -np.log1p(-RHO_MAX), points))
+    k = int(np.argmin(objective(grid)))
+    lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
     golden = (np.sqrt(5) - 1) / 2
-    for _ in range(60):
+    for _ in range(iterations):
         a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
-        fa, fb = _prediction_error(gram, np.array([a, b]), n)
+        fa, fb = objective(np.array([a, b]))
         lo, hi = (lo, b) if fa < fb else (a, hi)
-    rho = 0.5 * (lo + hi)
+    return 0.5 * (lo + hi)
+
+
+def _best_rho(gram: np.ndarray, n: int) -> tuple[float, float]:
+    """argmin over ρ of the mean squared prediction error (:func:`minimise_over_rho`)."""
+    rho = minimise_over_rho(lambda r: _prediction_error(gram, r, n), 2001, 60)
     return float(rho), float(_prediction_error(gram, np.array([rho]), n)[0])
 
 
