@@ -71,7 +71,13 @@ fn bench_vector(c: &mut Criterion) {
 fn bench_banded(c: &mut Criterion) {
     let mut group = c.benchmark_group("banded_solve");
     group.sample_size(20);
-    for (b, n) in [(2usize, 2048usize), (7, 4096)] {
+    for (b, n) in [
+        (1usize, 2048usize),
+        (2, 2048),
+        (3, 4096),
+        (5, 4096),
+        (7, 4096),
+    ] {
         let mut a = SymmetricBand::zeros(n, b);
         for i in 0..n {
             a.add(i, i, 2.5);
