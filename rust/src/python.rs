@@ -38,26 +38,16 @@ fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -
         Some(0) => Err(PyValueError::new_err(
             "threads must be a positive integer or None",
         )),
-        Some(k) => Ok(pool(k)?.install(f)),
+        // a fresh pool per call: a pool thread that built a plan (faer's AVX-512 kernels) ran
+        // the later filters 1.5–2× slower when pools were kept (measured)
+        Some(k) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(k)
+                .build()
+                .map_err(|e| PyValueError::new_err(format!("cannot start {k} threads: {e}")))?;
+            Ok(pool.install(f))
+        }
     }
-}
-
-/// The pool of `k` threads, started once per process and count (starting threads costs more
-/// than a small image's whole filter).
-fn pool(k: usize) -> PyResult<std::sync::Arc<rayon::ThreadPool>> {
-    static POOLS: std::sync::Mutex<Vec<(usize, std::sync::Arc<rayon::ThreadPool>)>> =
-        std::sync::Mutex::new(Vec::new());
-    let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, p)) = pools.iter().find(|(count, _)| *count == k) {
-        return Ok(p.clone());
-    }
-    let p = rayon::ThreadPoolBuilder::new()
-        .num_threads(k)
-        .build()
-        .map_err(|e| PyValueError::new_err(format!("cannot start {k} threads: {e}")))?;
-    let p = std::sync::Arc::new(p);
-    pools.push((k, p.clone()));
-    Ok(p)
 }
 
 fn noise_slice<'a>(noise: &'a Option<PyReadonlyArrayDyn<'_, f64>>) -> PyResult<Option<&'a [f64]>> {
