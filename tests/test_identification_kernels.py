@@ -120,3 +120,15 @@ def test_chi2_helpers():
     for x, dof in [(3.0, 1), (12.5, 10), (0.0, 4), (80.0, 50)]:
         assert _core.chi2_sf(x, dof) == pytest.approx(scipy_stats.chi2.sf(x, dof), rel=1e-9)
     assert _core.chi2_quantile(0.99, 4) == pytest.approx(scipy_stats.chi2.ppf(0.99, 4), rel=1e-9)
+
+
+@pytest.mark.parametrize("estimator", ["biased", "unbiased"])
+def test_lags_without_valid_pairs_are_nan(estimator):
+    """Found by hypothesis in CI: the biased estimator gave a value at a lag with no pair."""
+    x = np.full((40, 3), np.nan)
+    x[1, 0], x[30, 2], x[5, 1] = 1.0, 2.0, 0.5
+    got = kf.sample_correlation(x, (36, 0), estimator=estimator)
+    want = ref.sample_correlation(x, (36, 0), estimator == "unbiased")
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
+    assert np.isnan(got[0, 0])  # lag -36: no pair of valid pixels

@@ -49,15 +49,15 @@ def sample_correlation(
         raise ValueError("data have no valid (finite, unmasked) pixel")
     centred = np.where(valid, values - values[valid].mean(), 0.0)
     sums = _lagged_sums(centred, centred, lags)
-    if estimator == "biased":
-        pairs = np.full(sums.shape, float(n_valid))
-    elif valid.all():
+    if valid.all():
         pairs = _full_grid_pairs(values.shape, lags)
     else:
         weights = valid.astype(np.float64)
         pairs = np.rint(_lagged_sums(weights, weights, lags))
+    # a lag without a valid pair is NaN under both estimators
+    norm = np.full(sums.shape, float(n_valid)) if estimator == "biased" else pairs
     with np.errstate(invalid="ignore", divide="ignore"):
-        covariance = np.where(pairs > 0, sums / np.maximum(pairs, 1.0), np.nan)
+        covariance = np.where(pairs > 0, sums / np.maximum(norm, 1.0), np.nan)
     variance = covariance[lags]
     if not variance > 0:
         raise ValueError("data are constant over their valid pixels: no correlation to estimate")

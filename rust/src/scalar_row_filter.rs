@@ -404,7 +404,6 @@ impl ScalarRowFilter {
         expected: usize,
     ) -> Result<()> {
         let Some(weights) = weights else {
-            // the values are checked row by row in `run`, while they are in cache
             return check_sizes(z, out, expected);
         };
         if z.len() != expected || out.len() != expected || weights.len() != expected {
@@ -544,8 +543,8 @@ impl ScalarRowFilter {
                 ));
             }
             // 1/σ_θ² per pixel; a pixel of weight 0 is ignored (its value may be NaN)
-            let nominal = [1.0 / self.noise_var];
-            let weight = |ell: usize| row_weights.map_or(nominal[0], |r| r[ell]);
+            let nominal = 1.0 / self.noise_var;
+            let weight = |ell: usize| row_weights.map_or(nominal, |r| r[ell]);
             if t <= n {
                 let h = self.lower.row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
@@ -565,7 +564,7 @@ impl ScalarRowFilter {
                 match row_weights {
                     None => {
                         for ((g, s), zl) in columns.zip(row) {
-                            g[0] = (zl - s[0]) * nominal[0];
+                            g[0] = (zl - s[0]) * nominal;
                         }
                     }
                     Some(r) => {
