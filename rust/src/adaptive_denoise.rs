@@ -9,10 +9,11 @@
 //! the median taken over a regular subsample of at most NOMINAL_SAMPLE pixels (it only sets
 //! the prediction-error model; the per-pixel weights do the adapting).
 
-use crate::error::{FieldError, Result};
+use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
 use crate::scalar_row_filter::ScalarRowFilter;
+use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
 
 /// Floor of the local signal variance σ², in units of the noise variance.
@@ -20,18 +21,26 @@ pub const SIGNAL_FLOOR: f64 = 0.01;
 /// Most pixels in the sample of the nominal noise variance's median.
 pub const NOMINAL_SAMPLE: usize = 1 << 14;
 
-/// Denoises `frames` images (row-major height × width) of noise variance `noise_var` into
-/// `out`, frames in parallel; `model`: the row model of ξ; window 2·radius + 1.
-#[allow(clippy::too_many_arguments)]
+/// What the adaptive denoiser needs besides the pixels.
+#[derive(Debug, Clone, Copy)]
+pub struct AdaptiveSettings<'a> {
+    /// σ_θ².
+    pub noise_var: f64,
+    /// The row model of ξ (2 axes).
+    pub model: &'a FieldModel,
+    /// Half-width r of the (2r+1)² box.
+    pub radius: usize,
+    /// Run the RTS pass over the rows.
+    pub smooth: bool,
+}
+
+/// Denoises `frames` images (row-major height × width) into `out`, frames in parallel.
 pub fn adaptive_denoise(
     z: &[f64],
     frames: usize,
     height: usize,
     width: usize,
-    noise_var: f64,
-    model: &FieldModel,
-    radius: usize,
-    smooth: bool,
+    settings: &AdaptiveSettings,
     out: &mut [f64],
 ) -> Result<()> {
     let size = height * width;
@@ -41,35 +50,27 @@ pub fn adaptive_denoise(
             z.len()
         )));
     }
-    if !(noise_var.is_finite() && noise_var > 0.0) {
-        return Err(FieldError::InvalidParameter(format!(
-            "noise_var must be positive and finite, got {noise_var}"
-        )));
-    }
+    check_noise_var(settings.noise_var)?;
+    row_axes(settings.model)?;
     if size == 0 {
         return Ok(());
     }
-    // the model and width are checked once, before any frame runs
-    ScalarRowFilter::new(model, 1.0, width, None, true)?;
     out.par_chunks_mut(size)
         .zip(z.par_chunks(size))
-        .try_for_each(|(o, f)| frame(f, height, width, noise_var, model, radius, smooth, o))
+        .try_for_each(|(o, f)| frame(f, height, width, settings, o))
 }
 
-#[allow(clippy::too_many_arguments)]
 fn frame(
     z: &[f64],
     height: usize,
     width: usize,
-    noise_var: f64,
-    model: &FieldModel,
-    radius: usize,
-    smooth: bool,
+    settings: &AdaptiveSettings,
     out: &mut [f64],
 ) -> Result<()> {
+    let noise_var = settings.noise_var;
     // `out` holds μ, then x̂; `var` the box variance, then ξ̂
     let mut var = vec![0.0; z.len()];
-    local_moments(z, 1, height, width, radius, out, &mut var)?;
+    local_moments(z, 1, height, width, settings.radius, out, &mut var)?;
     let mut residual = vec![0.0; z.len()];
     let mut weights = vec![0.0; z.len()];
     for (((r, w), (x, mu)), v) in residual
@@ -83,8 +84,8 @@ fn frame(
         *r = (x - mu) / signal.sqrt();
     }
     let nominal = 1.0 / sample_median(&weights);
-    let filter = ScalarRowFilter::new(model, nominal, width, None, true)?;
-    filter.filter_image(&residual, Some(&weights), &mut var, height, smooth)?;
+    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, true)?;
+    filter.filter_image(&residual, Some(&weights), &mut var, height, settings.smooth)?;
     for ((x, w), detail) in out.iter_mut().zip(&weights).zip(&var) {
         *x += (w * noise_var).sqrt() * detail;
     }
@@ -114,20 +115,29 @@ mod tests {
             .collect()
     }
 
+    fn settings(noise_var: f64, model: &FieldModel, radius: usize) -> AdaptiveSettings<'_> {
+        AdaptiveSettings {
+            noise_var,
+            model,
+            radius,
+            smooth: true,
+        }
+    }
+
     #[test]
     fn a_flat_image_stays_flat_and_frames_match_single_calls() {
         let model = FieldModel::new(&[0.7, 0.7], &[1, 1], 1.0).unwrap();
         let (h, w) = (12, 15);
         let flat = vec![3.0; h * w];
         let mut out = vec![0.0; h * w];
-        adaptive_denoise(&flat, 1, h, w, 0.1, &model, 2, true, &mut out).unwrap();
+        adaptive_denoise(&flat, 1, h, w, &settings(0.1, &model, 2), &mut out).unwrap();
         assert!(out.iter().all(|v| (v - 3.0).abs() < 1e-12));
         let image = test_image(h, w);
         let stack: Vec<f64> = flat.iter().chain(&image).copied().collect();
         let mut both = vec![0.0; 2 * h * w];
-        adaptive_denoise(&stack, 2, h, w, 0.1, &model, 2, true, &mut both).unwrap();
+        adaptive_denoise(&stack, 2, h, w, &settings(0.1, &model, 2), &mut both).unwrap();
         let mut single = vec![0.0; h * w];
-        adaptive_denoise(&image, 1, h, w, 0.1, &model, 2, true, &mut single).unwrap();
+        adaptive_denoise(&image, 1, h, w, &settings(0.1, &model, 2), &mut single).unwrap();
         assert_eq!(&both[h * w..], &single[..]);
     }
 
@@ -145,12 +155,12 @@ mod tests {
         let model = FieldModel::new(&[0.7, 0.7], &[1, 1], 1.0).unwrap();
         let mut out = vec![0.0; 12];
         let z = vec![1.0; 12];
-        assert!(adaptive_denoise(&z, 1, 3, 4, 0.0, &model, 1, true, &mut out).is_err());
-        assert!(adaptive_denoise(&z[..11], 1, 3, 4, 0.1, &model, 1, true, &mut out).is_err());
+        assert!(adaptive_denoise(&z, 1, 3, 4, &settings(0.0, &model, 1), &mut out).is_err());
+        assert!(adaptive_denoise(&z[..11], 1, 3, 4, &settings(0.1, &model, 1), &mut out).is_err());
         let mut nan = z.clone();
         nan[5] = f64::NAN;
-        assert!(adaptive_denoise(&nan, 1, 3, 4, 0.1, &model, 1, true, &mut out).is_err());
+        assert!(adaptive_denoise(&nan, 1, 3, 4, &settings(0.1, &model, 1), &mut out).is_err());
         let line = FieldModel::new(&[0.7], &[1], 1.0).unwrap();
-        assert!(adaptive_denoise(&z, 1, 3, 4, 0.1, &line, 1, true, &mut out).is_err());
+        assert!(adaptive_denoise(&z, 1, 3, 4, &settings(0.1, &line, 1), &mut out).is_err());
     }
 }

@@ -469,13 +469,9 @@ fn decayed_len(h: &[f64], b: usize) -> usize {
     (b..=h.len()).find(small).unwrap_or(h.len())
 }
 
-/// `h` up to where the recursion's state (its last b values) has become negligible: the
-/// rest is a response to that state, as negligible (the factor is well conditioned).
+/// `h` cut at [`decayed_len`].
 fn decayed(mut h: Vec<f64>, b: usize) -> Vec<f64> {
-    let peak = h.iter().fold(1.0f64, |p, v| p.max(v.abs()));
-    let small = |e: &usize| h[e - b..*e].iter().all(|v| v.abs() < NEGLIGIBLE * peak);
-    let len = (b..=h.len()).find(small).unwrap_or(h.len());
-    h.truncate(len);
+    h.truncate(decayed_len(&h, b));
     h
 }
 
@@ -659,8 +655,9 @@ impl BandCholesky {
 
 /// One substitution over the positions [start, end) of its order (position p is x[p], or
 /// x[n − 1 − p] when `REV`): y_p = x_p · scale(p's index) − Σ_m coef_p[m] y_{p−B+m},
-/// `window` holding y_{p−B..p} (oldest first), `coef(i)` the B coefficients of x[i]. Shared by the Cholesky solves (scale 1/L_ii,
-/// pre-scaled coefficients) and the LDLᵀ solves of `band_ldl` (scale 1, then 1/D_ii).
+/// `window` holding y_{p−B..p} (oldest first), `coef(i)` the B coefficients of x[i].
+/// Shared by the Cholesky solves (scale 1/L_ii, pre-scaled coefficients) and the LDLᵀ
+/// solves of `band_ldl` (scale 1, then 1/D_ii).
 #[inline(always)]
 pub(crate) fn substitute<A: Arith, const B: usize, const REV: bool>(
     x: &mut [f64],

@@ -27,3 +27,13 @@ impl std::error::Error for FieldError {}
 
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, FieldError>;
+
+/// Ok when the noise variance is positive and finite (every filter's precondition).
+pub(crate) fn check_noise_var(noise_var: f64) -> Result<()> {
+    if noise_var.is_finite() && noise_var > 0.0 {
+        return Ok(());
+    }
+    Err(FieldError::InvalidParameter(format!(
+        "noise_var must be positive and finite, got {noise_var}"
+    )))
+}

@@ -1,6 +1,7 @@
 //! The thin binding layer: `kalmanfield._core`. Validation of Python-side types happens here;
 //! every numerical check is done by the plain-Rust kernels, whose errors become ValueError.
 
+use crate::adaptive_denoise::{adaptive_denoise, AdaptiveSettings};
 use crate::anisotropy::anisotropy;
 use crate::cascade::{sample_into, stream_frame_into};
 use crate::chi_squared::{chi_squared_quantile, chi_squared_sf};
@@ -347,6 +348,30 @@ fn chi2_quantile(p: f64, dof: f64) -> PyResult<f64> {
 }
 
 /// Runs a row filter on an image (height × width) or a stack (frames × height × width) into
+/// (frames, height, width) of an image (H, W) or a stack (F, H, W).
+fn stack_dims(shape: &[usize]) -> PyResult<(usize, usize, usize)> {
+    match shape {
+        [h, w] => Ok((1, *h, *w)),
+        [f, h, w] => Ok((*f, *h, *w)),
+        _ => Err(PyValueError::new_err("z must be 2-D or 3-D")),
+    }
+}
+
+/// The values of an output array `name` of `shape`, checked shape and C-contiguous.
+fn output<'a>(
+    out: &'a mut PyReadwriteArrayDyn<'_, f64>,
+    shape: &[usize],
+    name: &str,
+) -> PyResult<&'a mut [f64]> {
+    if out.shape() != shape {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have the shape of z"
+        )));
+    }
+    out.as_slice_mut()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
+}
+
 /// `out` (same shape), GIL released.
 fn filter_array(
     py: Python<'_>,
@@ -357,13 +382,8 @@ fn filter_array(
     stack: impl Fn(&[f64], &mut [f64], usize, usize) -> crate::Result<()> + Send + Sync,
 ) -> PyResult<()> {
     let shape = z.shape().to_vec();
-    if out.shape() != shape.as_slice() {
-        return Err(PyValueError::new_err("out must have the shape of z"));
-    }
+    let target = output(&mut out, &shape, "out")?;
     let values = contiguous(&z, "z")?;
-    let target = out
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
     py.detach(|| {
         with_threads(threads, || match shape.as_slice() {
             [h, _] => image(values, target, *h),
@@ -496,23 +516,10 @@ fn local_moments_into(
     mut var: PyReadwriteArrayDyn<'_, f64>,
 ) -> PyResult<()> {
     let shape = z.shape().to_vec();
-    let (frames, height, width) = match shape.as_slice() {
-        [h, w] => (1, *h, *w),
-        [f, h, w] => (*f, *h, *w),
-        _ => return Err(PyValueError::new_err("z must be 2-D or 3-D")),
-    };
-    if mean.shape() != shape.as_slice() || var.shape() != shape.as_slice() {
-        return Err(PyValueError::new_err(
-            "mean and var must have the shape of z",
-        ));
-    }
+    let (frames, height, width) = stack_dims(&shape)?;
+    let mean = output(&mut mean, &shape, "mean")?;
+    let var = output(&mut var, &shape, "var")?;
     let values = contiguous(&z, "z")?;
-    let mean = mean
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("mean must be C-contiguous"))?;
-    let var = var
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("var must be C-contiguous"))?;
     py.detach(|| {
         crate::local_moments::local_moments(values, frames, height, width, radius, mean, var)
     })?;
@@ -523,7 +530,7 @@ fn local_moments_into(
 /// `out` (same shape), frames in parallel.
 #[pyfunction]
 #[pyo3(signature = (z, noise_var, model, radius, smooth, out, threads=None))]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // the Python signature
 fn adaptive_denoise_into(
     py: Python<'_>,
     z: PyReadonlyArrayDyn<'_, f64>,
@@ -535,24 +542,18 @@ fn adaptive_denoise_into(
     threads: Option<usize>,
 ) -> PyResult<()> {
     let shape = z.shape().to_vec();
-    let (frames, height, width) = match shape.as_slice() {
-        [h, w] => (1, *h, *w),
-        [f, h, w] => (*f, *h, *w),
-        _ => return Err(PyValueError::new_err("z must be 2-D or 3-D")),
-    };
-    if out.shape() != shape.as_slice() {
-        return Err(PyValueError::new_err("out must have the shape of z"));
-    }
+    let (frames, height, width) = stack_dims(&shape)?;
+    let out = output(&mut out, &shape, "out")?;
     let values = contiguous(&z, "z")?;
-    let out = out
-        .as_slice_mut()
-        .map_err(|_| PyValueError::new_err("out must be C-contiguous"))?;
-    let model = &model.inner;
+    let settings = AdaptiveSettings {
+        noise_var,
+        model: &model.inner,
+        radius,
+        smooth,
+    };
     py.detach(|| {
         with_threads(threads, || {
-            crate::adaptive_denoise::adaptive_denoise(
-                values, frames, height, width, noise_var, model, radius, smooth, out,
-            )
+            adaptive_denoise(values, frames, height, width, &settings, out)
         })
     })??;
     Ok(())

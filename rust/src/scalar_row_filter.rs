@@ -88,11 +88,7 @@ impl ScalarRowFilter {
         toeplitz: bool,
     ) -> Result<Self> {
         let (y, x) = crate::vector_row_filter::row_axes(model)?;
-        if !(noise_var.is_finite() && noise_var > 0.0) {
-            return Err(FieldError::InvalidParameter(format!(
-                "noise_var must be positive and finite, got {noise_var}"
-            )));
-        }
+        crate::error::check_noise_var(noise_var)?;
         if width == 0 {
             return Err(FieldError::Shape("width must be positive".into()));
         }

@@ -67,11 +67,7 @@ impl VectorRowFilter {
     /// The filter of a 2-axis `model` (axis 0 = rows) for rows of `width` pixels.
     pub fn new(model: &FieldModel, noise_var: f64, width: usize) -> Result<Self> {
         let (y, x) = row_axes(model)?;
-        if !(noise_var.is_finite() && noise_var > 0.0) {
-            return Err(FieldError::InvalidParameter(format!(
-                "noise_var must be positive and finite, got {noise_var}"
-            )));
-        }
+        crate::error::check_noise_var(noise_var)?;
         if width == 0 {
             return Err(FieldError::Shape("width must be positive".into()));
         }

@@ -18,11 +18,7 @@ fn check(model: &FieldModel, noise_var: f64, height: usize, width: usize) -> Res
             model.ndim()
         )));
     }
-    if !(noise_var.is_finite() && noise_var > 0.0) {
-        return Err(FieldError::InvalidParameter(format!(
-            "noise_var must be positive and finite, got {noise_var}"
-        )));
-    }
+    crate::error::check_noise_var(noise_var)?;
     if height == 0 || width == 0 {
         return Err(FieldError::Shape("the grid must not be empty".into()));
     }
