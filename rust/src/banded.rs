@@ -2,6 +2,8 @@
 //! the quasi-optimal row filter (SPEC §2.3 generalised).
 
 use crate::error::{FieldError, Result};
+use crate::steady_band::{FactorCoefficients, Steady};
+use std::ops::Range;
 
 /// A symmetric matrix with `bandwidth` sub-diagonals, lower band stored row by row:
 /// entry (i, k), i - bandwidth ≤ k ≤ i, at `data[i * (bandwidth + 1) + k + bandwidth - i]`.
@@ -78,11 +80,24 @@ impl SymmetricBand {
         }
     }
 
-    /// The Cholesky factor L (A = L Lᵀ), same band storage.
+    /// The band of L before `steady_band::snap_interior`, for the tests.
+    #[cfg(test)]
+    pub(crate) fn cholesky_unsnapped(&self) -> Vec<f64> {
+        let mut l = self.data.clone();
+        factor_in_place(&mut l, self.size, self.bandwidth).unwrap();
+        l
+    }
+
+    /// The Cholesky factor L (A = L Lᵀ), same band storage; for the orders solved by
+    /// segments, its interior rows are made exactly periodic (`steady_band`).
     pub fn cholesky(&self) -> Result<BandCholesky> {
         let (n, b) = (self.size, self.bandwidth);
         let mut l = self.data.clone();
         factor_in_place(&mut l, n, b)?;
+        let steady = FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED;
+        if steady {
+            crate::steady_band::snap_interior(&mut l, n, b);
+        }
         let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
         // Pre-scaled coefficients of the substitutions, zero outside the matrix: row i of L
         // (columns i − b..i) and column i below the pivot (rows i + 1..i + b), times 1/L_ii.
@@ -109,10 +124,14 @@ impl SymmetricBand {
             backward,
             segmented: None,
             strided: None,
+            steady: None,
             fused: fused_available(),
         };
-        if FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED {
-            factor.segment(b >= LANE_MAJOR_BANDS);
+        if steady {
+            factor.steady = Steady::new(&factor.coefficients());
+            if factor.steady.is_none() {
+                factor.segment(b >= LANE_MAJOR_BANDS);
+            }
         }
         Ok(factor)
     }
@@ -227,6 +246,7 @@ pub struct BandCholesky {
     backward: Vec<f64>,
     segmented: Option<Segmented>,
     strided: Option<Strided>,
+    steady: Option<Steady>,
     /// The CPU has FMA and AVX2: the solves run the fused-multiply-add build of the kernels
     /// (one rounding and one latency per step instead of two). Decided once per process, so
     /// that every thread produces the same bits.
@@ -286,9 +306,31 @@ impl Arith for Fused {
 
 /// Segments solved at once by the segmented solves: their latency chains overlap, and one
 /// step of all of them is a few vector operations.
-const LANES: usize = 8;
+pub(crate) const LANES: usize = 8;
 /// One value per segment.
-type Lanes = [f64; LANES];
+pub(crate) type Lanes = [f64; LANES];
+
+/// The coefficients of the segmented steps and responses: one value per lane (`[Lanes]`),
+/// or one value shared by every lane (`[f64]`: the steady interior of a factor, see
+/// `steady_band`).
+pub(crate) trait LaneCoefficients: std::ops::Index<Range<usize>, Output = Self> {
+    /// Entry i for every lane.
+    fn lanes(&self, i: usize) -> Lanes;
+}
+
+impl LaneCoefficients for [Lanes] {
+    #[inline(always)]
+    fn lanes(&self, i: usize) -> Lanes {
+        self[i]
+    }
+}
+
+impl LaneCoefficients for [f64] {
+    #[inline(always)]
+    fn lanes(&self, i: usize) -> Lanes {
+        [self[i]; LANES]
+    }
+}
 /// Smallest order solved by segments.
 const MIN_SEGMENTED: usize = 16 * LANES;
 /// The bandwidths with unrolled kernels (those of the row filters; at most 7, see
@@ -442,7 +484,7 @@ fn segment_span(n: usize, b: usize) -> usize {
 
 /// The substitution's output at `positions` for a zero right-hand side, started from a
 /// window with a unit entry in slot q.
-fn zero_input_response(
+pub(crate) fn zero_input_response(
     coef: &[f64],
     b: usize,
     q: usize,
@@ -463,7 +505,7 @@ fn zero_input_response(
 /// The length of `h` up to where the recursion's state (its last b values) has become
 /// negligible: the rest is a response to that state, as negligible (the factor is well
 /// conditioned).
-fn decayed_len(h: &[f64], b: usize) -> usize {
+pub(crate) fn decayed_len(h: &[f64], b: usize) -> usize {
     let peak = h.iter().fold(1.0f64, |p, v| p.max(v.abs()));
     let small = |e: &usize| h[e - b..*e].iter().all(|v| v.abs() < NEGLIGIBLE * peak);
     (b..=h.len()).find(small).unwrap_or(h.len())
@@ -481,6 +523,28 @@ thread_local! {
 }
 
 impl BandCholesky {
+    /// The substitution coefficients, for the steady solves.
+    fn coefficients(&self) -> FactorCoefficients<'_> {
+        FactorCoefficients {
+            bandwidth: self.bandwidth,
+            inverse_diagonal: &self.inverse_diagonal,
+            forward: &self.forward,
+            backward: &self.backward,
+        }
+    }
+
+    /// The steady plan, if the solves use one.
+    #[cfg(test)]
+    pub(crate) fn steady_plan(&self) -> Option<&Steady> {
+        self.steady.as_ref()
+    }
+
+    /// The solve without a plan (one substitution at a time), for the tests.
+    #[cfg(test)]
+    pub(crate) fn solve_unplanned(&self, x: &mut [f64]) {
+        self.solve_dynamic(x)
+    }
+
     /// Plans the segmented solves, on a lane-major copy of x or on x itself.
     fn segment(&mut self, lane_major: bool) {
         let span = segment_span(self.size, self.bandwidth);
@@ -542,14 +606,24 @@ impl BandCholesky {
             self.substitute_segmented::<A, B, true>(x, &self.backward, &s.backward, s.span);
             return;
         }
-        if let Some(s) = &self.segmented {
+        let span = match (&self.segmented, &self.steady) {
+            (Some(s), _) => s.span,
+            (_, Some(s)) => s.span,
+            _ => 0,
+        };
+        if span > 0 {
             // taken out of the thread-local (not used in a closure): the kernels must stay
             // inlined into the caller's target features
             let mut scratch = SCRATCH.take();
-            if scratch.len() < s.span {
-                scratch.resize(s.span, [0.0; LANES]);
+            if scratch.len() < span {
+                scratch.resize(span, [0.0; LANES]);
             }
-            self.solve_segmented::<A, B>(x, &mut scratch[..s.span], s);
+            let rows = &mut scratch[..span];
+            match (&self.segmented, &self.steady) {
+                (Some(s), _) => self.solve_segmented::<A, B>(x, rows, s),
+                (_, Some(s)) => s.solve::<A, B>(&self.coefficients(), x, rows),
+                _ => unreachable!(),
+            }
             SCRATCH.set(scratch);
             return;
         }
@@ -626,25 +700,29 @@ impl BandCholesky {
         assert!(s.backward.steps.len() == span * (B + 1) && s.backward.lead == n - whole);
         let inv = |i: usize| self.inverse_diagonal[i];
         // forward: the segments (read from x), their corrections, then the remainder
-        let windows = forward_steps::<A, B>(&x[..whole], rows, &s.forward.steps);
-        let entering = entering_windows::<A, B, false>(&windows, &s.forward, [0.0; B]);
+        let per_lane = |t: usize| t * B * (B + 1);
+        let steps = &s.forward.steps[..];
+        let windows = forward_steps::<A, B, _>(&x[..whole], rows, steps, per_lane);
+        let ends = |k: usize| &s.forward.ends[k * B * B..(k + 1) * B * B];
+        let entering = entering_windows::<A, B, false>(&windows, ends, [0.0; B]);
         let mut last = entering.1;
         for (row, h) in rows.iter_mut().zip(s.forward.responses.chunks_exact(B)) {
-            add_responses::<A, B>(row, h, &entering.0);
+            add_responses::<A, B, _>(row, h, &entering.0);
         }
         substitute::<A, B, false>(x, slots(&self.forward), inv, whole, n, &mut last);
         // backward: the remainder, then the segments and their corrections (written to x)
         let mut lead = [0.0; B];
         substitute::<A, B, true>(x, slots(&self.backward), inv, 0, n - whole, &mut lead);
-        let windows = lane_steps::<A, B, true>(rows, &s.backward.steps);
-        let (entering, _) = entering_windows::<A, B, true>(&windows, &s.backward, lead);
+        let windows = lane_steps::<A, B, true, _>(rows, &s.backward.steps[..], per_lane);
+        let ends = |k: usize| &s.backward.ends[k * B * B..(k + 1) * B * B];
+        let (entering, _) = entering_windows::<A, B, true>(&windows, ends, lead);
         let mut segments = x[..whole].chunks_exact_mut(span);
         let mut segments: [&mut [f64]; LANES] = std::array::from_fn(|_| segments.next().unwrap());
         let mut responses = s.backward.responses.chunks_exact(B);
         for (j, row) in rows.iter().enumerate().rev() {
             let mut v = *row;
             if let Some(h) = responses.next() {
-                add_responses::<A, B>(&mut v, h, &entering);
+                add_responses::<A, B, _>(&mut v, h, &entering);
             }
             for (segment, vk) in segments.iter_mut().zip(v) {
                 segment[j] = vk;
@@ -668,41 +746,70 @@ pub(crate) fn substitute<A: Arith, const B: usize, const REV: bool>(
     window: &mut [f64; B],
 ) {
     let n = x.len();
-    for p in start..end {
-        let i = if REV { n - 1 - p } else { p };
+    let index = |p: usize| if REV { n - 1 - p } else { p };
+    let step = |x: &mut [f64], i: usize, ring: &[f64; B], r: usize| {
         let c = coef(i);
         // the newest window entry last: it alone is on the latency chain
         let mut acc = x[i] * scale(i);
         for m in 0..B {
-            acc = A::sub_product(acc, c[m], window[m]);
+            acc = A::sub_product(acc, c[m], ring[(r + m) % B]);
         }
         x[i] = acc;
-        window.rotate_left(1);
-        window[B - 1] = acc;
+        acc
+    };
+    // a ring, B steps per group: slot (r + m) % B holds y_{p−B+m} at step r, constant
+    // indices once unrolled, so the window stays in registers (rotating it goes through
+    // memory, and each step would wait on a store)
+    assert!(
+        (1..=7).contains(&B),
+        "substitute: the ring is unrolled for B ≤ 7"
+    );
+    let whole = start + (end - start) / B * B;
+    let mut ring = *window;
+    for group in (start..whole).step_by(B.max(1)) {
+        macro_rules! ring_steps {
+            ($($r:literal)*) => {$(
+                if $r < B {
+                    ring[$r] = step(x, index(group + $r), &ring, $r);
+                }
+            )*};
+        }
+        ring_steps!(0 1 2 3 4 5 6);
     }
+    // back in order after whole groups; the rest one step at a time
+    for p in whole..end {
+        let y = step(x, index(p), &ring, 0);
+        ring.rotate_left(1);
+        ring[B - 1] = y;
+    }
+    *window = ring;
 }
 
 /// The coefficients of x[i] in a substitution whose B per position are stored contiguously.
 #[inline(always)]
-fn slots<const B: usize>(coef: &[f64]) -> impl Fn(usize) -> [f64; B] + '_ {
+pub(crate) fn slots<const B: usize>(coef: &[f64]) -> impl Fn(usize) -> [f64; B] + '_ {
     move |i| coef[i * B..(i + 1) * B].try_into().unwrap()
 }
 
 /// The forward steps of all segments from zero windows, reading the segments from x (at
 /// x[k · span..(k + 1) · span], span = rows.len()) and writing them lane-major to rows
-/// (`rows[j][k] = x[k · span + j]`); returns the windows at the segments' ends.
+/// (`rows[j][k] = x[k · span + j]`); returns the windows at the segments' ends. The
+/// coefficients of the t-th group of B steps start at `steps[group(t)]` (see
+/// [`Direction::steps`]).
 #[inline(always)]
-fn forward_steps<A: Arith, const B: usize>(
+pub(crate) fn forward_steps<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
     x: &[f64],
     rows: &mut [Lanes],
-    steps: &[Lanes],
+    steps: &C,
+    group: impl Fn(usize) -> usize,
 ) -> [Lanes; B] {
     let span = rows.len();
     assert!(x.len() == LANES * span && span % B == 0);
     let mut windows = [[0.0; LANES]; B];
-    let coefs = steps.chunks_exact(B * (B + 1));
-    for (t, (group, c)) in rows.chunks_exact_mut(B).zip(coefs).enumerate() {
-        let group: &mut [Lanes; B] = group.try_into().unwrap();
+    for (t, group_rows) in rows.chunks_exact_mut(B).enumerate() {
+        let at = group(t);
+        let c = &steps[at..at + B * (B + 1)];
+        let group: &mut [Lanes; B] = group_rows.try_into().unwrap();
         macro_rules! ring_steps {
             ($($r:literal)*) => {$(
                 if $r < B {
@@ -713,7 +820,7 @@ fn forward_steps<A: Arith, const B: usize>(
                     let v: Lanes =
                         std::array::from_fn(|k| unsafe { *x.get_unchecked(k * span + j) });
                     let c = &c[$r * (B + 1)..($r + 1) * (B + 1)];
-                    let y = lane_step::<A, B>(v, c, &windows, $r);
+                    let y = lane_step::<A, B, C>(v, c, &windows, $r);
                     windows[$r] = y;
                     group[$r] = y;
                 }
@@ -728,22 +835,28 @@ fn forward_steps<A: Arith, const B: usize>(
 /// [`Segmented`]; backward from the last row); returns the windows at the segments' ends,
 /// oldest first.
 #[inline(always)]
-fn lane_steps<A: Arith, const B: usize, const REV: bool>(
+pub(crate) fn lane_steps<
+    A: Arith,
+    const B: usize,
+    const REV: bool,
+    C: LaneCoefficients + ?Sized,
+>(
     rows: &mut [Lanes],
-    steps: &[Lanes],
+    steps: &C,
+    group: impl Fn(usize) -> usize,
 ) -> [Lanes; B] {
     // a ring of windows, B steps per group: slot (r + m) % B holds the result m − B steps
     // back at step r, constant indices once unrolled, so the windows stay in registers
     // (shifting them, or indexing them at run time, goes through memory)
     let mut windows = [[0.0; LANES]; B];
-    let coefs = steps.chunks_exact(B * (B + 1));
+    let coefs = |t: usize| &steps[group(t)..group(t) + B * (B + 1)];
     if REV {
-        for (group, c) in rows.chunks_exact_mut(B).rev().zip(coefs) {
-            lane_group::<A, B, REV>(group, c, &mut windows);
+        for (t, rows) in rows.chunks_exact_mut(B).rev().enumerate() {
+            lane_group::<A, B, REV, C>(rows, coefs(t), &mut windows);
         }
     } else {
-        for (group, c) in rows.chunks_exact_mut(B).zip(coefs) {
-            lane_group::<A, B, REV>(group, c, &mut windows);
+        for (t, rows) in rows.chunks_exact_mut(B).enumerate() {
+            lane_group::<A, B, REV, C>(rows, coefs(t), &mut windows);
         }
     }
     // span is a multiple of B: the ring is back in order, oldest first
@@ -753,9 +866,9 @@ fn lane_steps<A: Arith, const B: usize, const REV: bool>(
 /// B steps of the LANES segments on the B rows of `group` (in reverse when `REV`); `coef`
 /// holds the steps' coefficients (see [`Direction::steps`]).
 #[inline(always)]
-fn lane_group<A: Arith, const B: usize, const REV: bool>(
+fn lane_group<A: Arith, const B: usize, const REV: bool, C: LaneCoefficients + ?Sized>(
     group: &mut [Lanes],
-    coef: &[Lanes],
+    coef: &C,
     windows: &mut [Lanes; B],
 ) {
     let group: &mut [Lanes; B] = group.try_into().unwrap();
@@ -765,7 +878,7 @@ fn lane_group<A: Arith, const B: usize, const REV: bool>(
             if $r < B {
                 let row = if REV { B - 1 - $r } else { $r };
                 let c = &coef[$r * (B + 1)..($r + 1) * (B + 1)];
-                let y = lane_step::<A, B>(group[row], c, windows, $r);
+                let y = lane_step::<A, B, C>(group[row], c, windows, $r);
                 windows[$r] = y;
                 group[row] = y;
             }
@@ -777,21 +890,23 @@ fn lane_group<A: Arith, const B: usize, const REV: bool>(
 /// One step of the LANES segments: `c` holds 1/L_ii and the coefficients (see
 /// [`Direction::steps`]), `windows[(r + m) % B]` the results B − m steps back.
 #[inline(always)]
-fn lane_step<A: Arith, const B: usize>(
+fn lane_step<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
     v: Lanes,
-    c: &[Lanes],
+    c: &C,
     windows: &[Lanes; B],
     r: usize,
 ) -> Lanes {
     let mut acc = [0.0; LANES];
+    let scale = c.lanes(0);
     for k in 0..LANES {
-        acc[k] = v[k] * c[0][k];
+        acc[k] = v[k] * scale[k];
     }
     // the newest result last: it alone is on the latency chain
     for m in 0..B {
         let w = &windows[(r + m) % B];
+        let cm = c.lanes(1 + m);
         for k in 0..LANES {
-            acc[k] = A::sub_product(acc[k], c[1 + m][k], w[k]);
+            acc[k] = A::sub_product(acc[k], cm[k], w[k]);
         }
     }
     acc
@@ -799,11 +914,12 @@ fn lane_step<A: Arith, const B: usize>(
 
 /// The exact windows entering the segments of one substitution (by slot, then lane), `lead`
 /// that of its first segment, `windows` its zero-start windows at the segments' ends (see
-/// [`lane_steps`]); and the exact window at the end of the last segment.
+/// [`lane_steps`]), `ends(k)` the end windows of segment k's responses (see
+/// [`Direction::ends`]); and the exact window at the end of the last segment.
 #[inline(always)]
-fn entering_windows<A: Arith, const B: usize, const REV: bool>(
+pub(crate) fn entering_windows<'a, A: Arith, const B: usize, const REV: bool>(
     windows: &[Lanes; B],
-    direction: &Direction,
+    ends: impl Fn(usize) -> &'a [f64],
     lead: [f64; B],
 ) -> ([Lanes; B], [f64; B]) {
     // each segment's end is its zero-start one (its lane of `windows`) plus the response
@@ -815,7 +931,7 @@ fn entering_windows<A: Arith, const B: usize, const REV: bool>(
         for q in 0..B {
             entering[q][lane] = window[q];
         }
-        let ends = &direction.ends[k * B * B..(k + 1) * B * B];
+        let ends = ends(k);
         window = std::array::from_fn(|m| {
             let mut y = windows[m][lane];
             for (q, &w) in window.iter().enumerate() {
@@ -829,12 +945,20 @@ fn entering_windows<A: Arith, const B: usize, const REV: bool>(
 
 /// row += Σ_q entering[q] h[q], lane by lane.
 #[inline(always)]
-fn add_responses<A: Arith, const B: usize>(row: &mut Lanes, h: &[Lanes], entering: &[Lanes; B]) {
-    for q in 0..B {
+pub(crate) fn add_responses<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
+    row: &mut Lanes,
+    h: &C,
+    entering: &[Lanes; B],
+) {
+    // a local accumulator: updating `row` in place, LLVM makes the loop scalar
+    let mut acc = *row;
+    for (q, eq) in entering.iter().enumerate() {
+        let hq = h.lanes(q);
         for k in 0..LANES {
-            row[k] = A::add_product(row[k], entering[q][k], h[q][k]);
+            acc[k] = A::add_product(acc[k], eq[k], hq[k]);
         }
     }
+    *row = acc;
 }
 
 /// Step j of the LANES segments on x (see [`lane_step`]); r = j mod B; `group` holds
@@ -854,7 +978,7 @@ fn lane_step_in_place<A: Arith, const B: usize, const REV: bool>(
     // (asserted by the caller) and at() maps [0, n) onto itself; unchecked because the
     // 2 · LANES bounds checks per step cost more than the arithmetic.
     let v: Lanes = std::array::from_fn(|k| unsafe { *x.get_unchecked(at(k * span + j)) });
-    let y = lane_step::<A, B>(v, &group[r * (B + 1)..(r + 1) * (B + 1)], windows, r);
+    let y = lane_step::<A, B, [Lanes]>(v, &group[r * (B + 1)..(r + 1) * (B + 1)], windows, r);
     windows[r] = y;
     for (k, &yk) in y.iter().enumerate() {
         unsafe { *x.get_unchecked_mut(at(k * span + j)) = yk };
@@ -929,6 +1053,16 @@ mod tests {
         assert!(rhs.iter().zip(&x).all(|(p, q)| (p - q).abs() < 1e-12));
     }
 
+    /// The agreement expected with A itself (residuals, unsnapped factors): the planned
+    /// factors of the segmented orders have their interior snapped (see `steady_band`).
+    fn snapped_tolerance(n: usize) -> f64 {
+        if n >= MIN_SEGMENTED {
+            10.0 * crate::steady_band::STEADY_TOLERANCE
+        } else {
+            1e-12
+        }
+    }
+
     /// A diagonally dominant test matrix with irregular off-diagonal entries.
     fn test_matrix(n: usize, b: usize) -> SymmetricBand {
         let mut a = SymmetricBand::zeros(n, b);
@@ -961,7 +1095,14 @@ mod tests {
             let mut back = vec![0.0; n];
             a.mul_vec(&x, &mut back);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-13));
-            assert!(back.iter().zip(&rhs).all(|(p, q)| (p - q).abs() < 1e-12));
+            let residual = back
+                .iter()
+                .zip(&rhs)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+            assert!(
+                residual < snapped_tolerance(n),
+                "b {b} n {n}: residual {residual:e}"
+            );
         }
     }
 
@@ -1018,7 +1159,11 @@ mod tests {
             let mut ldl = crate::band_ldl::BandLdlBatch::new(n, b);
             ldl.factor([&a; crate::band_ldl::LANES], &zero, 1).unwrap();
             ldl.solve_in_place(5, &mut y);
-            assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
+            let most = x
+                .iter()
+                .zip(&y)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+            assert!(most < snapped_tolerance(n), "b {b} n {n}: {most:e}");
         }
     }
 

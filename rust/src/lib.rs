@@ -24,6 +24,7 @@ pub mod row_modes;
 pub mod scalar_row_filter;
 pub mod segment;
 pub mod stationary_start;
+pub mod steady_band;
 pub mod vector_row_filter;
 pub mod vector_state;
 pub mod whitening;

@@ -1,0 +1,351 @@
+//! Segmented solves of a band Cholesky factor with a steady interior (the row systems of the
+//! quasi-optimal row filter, SPEC §2.3 generalised, once its model has settled).
+//!
+//! Away from the ends of a row, the factor of A = Λ + HᵀH/σ_θ² repeats with the period of
+//! the state order (the model along the row is stationary there). Over that interior the
+//! segmented substitutions of `banded` need no per-segment coefficients or zero-input
+//! responses: every segment sees the same ones, kept once (a cycle of lcm(B, period) steps,
+//! one response per window slot) and broadcast to all lanes, so the solve streams only x.
+//! The ends (the `lead` before the segments and the `tail` after them) are substituted one
+//! position at a time with the factor's own coefficients.
+//!
+//! The interior is made exactly periodic when the factor is made ([`snap_interior`]): the
+//! rows of L within [`STEADY_TOLERANCE`] (relative) of the row's middle in the same phase
+//! are replaced by the middle's. The band of P_e the row model is fitted to is itself
+//! computed to about 1e-11 (sums over the W modes of the row), so the factor's rows scatter
+//! at that level anyway; the replaced factor solves a system within ~1e-10 of A (solutions
+//! within ~3e-11, tested), far below the filter's own approximation. Every solve of the
+//! factor (steady or not) then uses the same replaced rows.
+
+use crate::banded::{
+    add_responses, decayed_len, entering_windows, forward_steps, lane_steps, slots, substitute,
+    zero_input_response, Arith, Lanes, LANES,
+};
+
+/// Relative distance from the middle's coefficients within which a position is steady.
+pub(crate) const STEADY_TOLERANCE: f64 = 1e-10;
+/// The longest period looked for (the state order of the row filters is at most 4).
+const MAX_PERIOD: usize = 8;
+
+/// The plan of a steady segmented solve: LANES segments of `span` positions from x[start],
+/// span a multiple of the cycle lcm(B, period), so that step j of every segment has the
+/// same phase.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Steady {
+    pub(crate) start: usize,
+    pub(crate) span: usize,
+    pub(crate) forward: SteadyDirection,
+    pub(crate) backward: SteadyDirection,
+}
+
+/// One substitution of a [`Steady`] solve; step j' counts in the substitution's own order
+/// (backward: from the end of each segment).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SteadyDirection {
+    /// Per step of one cycle: 1/L_ii, then the B coefficients, shared by all segments.
+    pub(crate) steps: Vec<f64>,
+    /// Per offset t into a segment and window slot q: the response at t to a unit entry in
+    /// slot q of the segment's starting window; cut where every response has decayed.
+    pub(crate) responses: Vec<f64>,
+    /// Per slot q and slot m: the response's window at the segment's end.
+    pub(crate) ends: Vec<f64>,
+}
+
+/// Makes the interior of the band factor `l` (rows of b + 1 entries, see `SymmetricBand`)
+/// exactly periodic: the rows within [`STEADY_TOLERANCE`] of the middle row of the same
+/// phase become copies of it, over the longest such range around the middle among the
+/// periods 1..=8 (a period that does not fit leaves only a short range, and nothing is
+/// replaced outside it).
+pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) {
+    let row = |i: usize| i * (b + 1)..(i + 1) * (b + 1);
+    let close = |i: usize, r: usize, scale: f64| {
+        (0..=b).all(|m| (l[i * (b + 1) + m] - l[r * (b + 1) + m]).abs() <= STEADY_TOLERANCE * scale)
+    };
+    let range = |period: usize| {
+        let middle = n / 2 / period * period;
+        let scale = l[row(middle).start..row(middle + period - 1).end]
+            .iter()
+            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+        periodic_range(n, period, |i, r| close(i, r, scale))
+    };
+    if n < 2 * MAX_PERIOD {
+        return;
+    }
+    let (period, (lo, hi)) = longest(range);
+    for i in lo..hi {
+        let r = reference(n, i, period);
+        if r != i {
+            l.copy_within(row(r), row(i).start);
+        }
+    }
+}
+
+/// The middle position of an order-n factor with the phase of position i.
+fn reference(n: usize, i: usize, period: usize) -> usize {
+    n / 2 / period * period + i % period
+}
+
+/// The positions [lo, hi) around the middle for which `same(i, reference)` holds.
+fn periodic_range(n: usize, period: usize, same: impl Fn(usize, usize) -> bool) -> (usize, usize) {
+    let middle = n / 2 / period * period;
+    let steady = |i: &usize| same(*i, reference(n, *i, period));
+    let lo = (0..middle).rev().find(|i| !steady(i)).map_or(0, |i| i + 1);
+    let hi = (middle..n).find(|i| !steady(i)).unwrap_or(n);
+    (lo, hi)
+}
+
+/// The period in 1..=MAX_PERIOD with the longest range (the shortest among equals).
+fn longest(range: impl Fn(usize) -> (usize, usize)) -> (usize, (usize, usize)) {
+    (1..=MAX_PERIOD)
+        .map(|p| (p, range(p)))
+        .max_by_key(|&(p, (lo, hi))| (hi - lo, usize::MAX - p))
+        .expect("MAX_PERIOD > 0")
+}
+
+/// The factor's substitution coefficients (see `BandCholesky`): 1/L_ii and, per position,
+/// the B pre-scaled coefficients of each direction.
+pub(crate) struct FactorCoefficients<'a> {
+    pub(crate) bandwidth: usize,
+    pub(crate) inverse_diagonal: &'a [f64],
+    pub(crate) forward: &'a [f64],
+    pub(crate) backward: &'a [f64],
+}
+
+impl FactorCoefficients<'_> {
+    fn size(&self) -> usize {
+        self.inverse_diagonal.len()
+    }
+
+    /// Whether positions i and r have the same coefficients in both directions.
+    fn same(&self, i: usize, r: usize) -> bool {
+        let b = self.bandwidth;
+        let (fi, fr) = (
+            &self.forward[i * b..(i + 1) * b],
+            &self.forward[r * b..(r + 1) * b],
+        );
+        let (bi, br) = (
+            &self.backward[i * b..(i + 1) * b],
+            &self.backward[r * b..(r + 1) * b],
+        );
+        self.inverse_diagonal[i] == self.inverse_diagonal[r] && fi == fr && bi == br
+    }
+}
+
+fn lcm(a: usize, b: usize) -> usize {
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    a / gcd(a, b) * b
+}
+
+impl Steady {
+    /// The steady plan of a factor (see [`snap_interior`]), if its exactly periodic interior
+    /// holds LANES segments of at least two cycles each.
+    pub(crate) fn new(f: &FactorCoefficients) -> Option<Steady> {
+        let (n, b) = (f.size(), f.bandwidth);
+        if n < 2 * MAX_PERIOD {
+            return None;
+        }
+        let (period, (lo, hi)) = longest(|p| periodic_range(n, p, |i, r| f.same(i, r)));
+        let cycle = lcm(b, period);
+        let span = (hi - lo) / LANES / cycle * cycle;
+        if span < 2 * cycle {
+            return None;
+        }
+        let phase = |p: usize| reference(n, p, period);
+        let forward_position = |j: usize| phase(lo + j);
+        // backward step j' is the position span − 1 − j' of a segment
+        let backward_position = |j: usize| phase(lo + span - 1 - j);
+        Some(Steady {
+            start: lo,
+            span,
+            forward: SteadyDirection::new(f, f.forward, cycle, span, forward_position),
+            backward: SteadyDirection::new(f, f.backward, cycle, span, backward_position),
+        })
+    }
+
+    /// Groups of B steps in one cycle.
+    fn groups(&self, b: usize) -> usize {
+        self.forward.steps.len() / (b * (b + 1))
+    }
+
+    /// Solves A x = rhs in place with the factor `f`; `rows`: span lanes of scratch.
+    #[inline(always)]
+    pub(crate) fn solve<A: Arith, const B: usize>(
+        &self,
+        f: &FactorCoefficients,
+        x: &mut [f64],
+        rows: &mut [Lanes],
+    ) {
+        let (n, start, span) = (f.size(), self.start, self.span);
+        let end = start + LANES * span;
+        assert!(end <= n && n == x.len() && rows.len() == span && f.bandwidth == B);
+        let groups = self.groups(B);
+        let group = |t: usize| t % groups * B * (B + 1);
+        let inv = |i: usize| f.inverse_diagonal[i];
+        // forward: the lead, the segments from zero windows, their corrections, the tail
+        let mut window = [0.0; B];
+        substitute::<A, B, false>(x, slots(f.forward), inv, 0, start, &mut window);
+        let forward = &self.forward;
+        let windows = forward_steps::<A, B, [f64]>(&x[start..end], rows, &forward.steps[..], group);
+        let (entering, mut last) =
+            entering_windows::<A, B, false>(&windows, |_| &forward.ends[..], window);
+        for (row, h) in rows.iter_mut().zip(forward.responses.chunks_exact(B)) {
+            add_responses::<A, B, [f64]>(row, h, &entering);
+        }
+        substitute::<A, B, false>(x, slots(f.forward), inv, end, n, &mut last);
+        // backward: the tail, the segments and their corrections (written to x), the lead
+        let mut window = [0.0; B];
+        substitute::<A, B, true>(x, slots(f.backward), inv, 0, n - end, &mut window);
+        let backward = &self.backward;
+        let windows = lane_steps::<A, B, true, [f64]>(rows, &backward.steps[..], group);
+        let (entering, mut last) =
+            entering_windows::<A, B, true>(&windows, |_| &backward.ends[..], window);
+        // corrected in place first: fused with the scatter below, LLVM makes it scalar
+        for (row, h) in rows
+            .iter_mut()
+            .rev()
+            .zip(backward.responses.chunks_exact(B))
+        {
+            add_responses::<A, B, [f64]>(row, h, &entering);
+        }
+        let mut segments = x[start..end].chunks_exact_mut(span);
+        let mut segments: [&mut [f64]; LANES] = std::array::from_fn(|_| segments.next().unwrap());
+        for (j, row) in rows.iter().enumerate() {
+            for (segment, &vk) in segments.iter_mut().zip(row) {
+                segment[j] = vk;
+            }
+        }
+        substitute::<A, B, true>(x, slots(f.backward), inv, n - start, n, &mut last);
+    }
+}
+
+impl SteadyDirection {
+    /// `coef`: the direction's coefficients; `position(j')`: the middle position whose
+    /// coefficients serve step j'.
+    fn new(
+        f: &FactorCoefficients,
+        coef: &[f64],
+        cycle: usize,
+        span: usize,
+        position: impl Fn(usize) -> usize,
+    ) -> SteadyDirection {
+        let b = f.bandwidth;
+        let mut steps = Vec::with_capacity(cycle * (b + 1));
+        for j in 0..cycle {
+            let i = position(j);
+            steps.push(f.inverse_diagonal[i]);
+            steps.extend_from_slice(&coef[i * b..(i + 1) * b]);
+        }
+        let h: Vec<Vec<f64>> = (0..b)
+            .map(|q| zero_input_response(coef, b, q, (0..span).map(&position)))
+            .collect();
+        let ends = (0..b * b).map(|i| h[i / b][span - b + i % b]).collect();
+        let len = h.iter().map(|hq| decayed_len(hq, b)).max().unwrap_or(0);
+        let responses = (0..len * b).map(|i| h[i % b][i / b]).collect();
+        SteadyDirection {
+            steps,
+            responses,
+            ends,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::banded::SymmetricBand;
+
+    /// A band matrix whose diagonals repeat with `period` (edges included: the factor still
+    /// converges from both ends), optionally perturbed by a relative `noise` per entry.
+    fn periodic(n: usize, b: usize, period: usize, noise: f64) -> SymmetricBand {
+        let mut a = SymmetricBand::zeros(n, b);
+        for i in 0..n {
+            let jitter = noise * ((i * 7919) % 97) as f64 / 97.0;
+            a.add(i, i, 2.5 + 0.3 * (i % period) as f64 + jitter);
+            for k in i.saturating_sub(b)..i {
+                a.add(
+                    i,
+                    k,
+                    -0.8 / ((i - k) * (i - k)) as f64 * (1.0 + 0.1 * (k % period) as f64),
+                );
+            }
+        }
+        a
+    }
+
+    fn solves(a: &SymmetricBand) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let n = a.size();
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).cos()).collect();
+        let factor = a.cholesky().unwrap();
+        let (mut x, mut y) = (rhs.clone(), rhs.clone());
+        factor.solve_in_place(&mut x);
+        factor.solve_unplanned(&mut y);
+        (rhs, x, y)
+    }
+
+    fn max_difference(u: &[f64], v: &[f64]) -> f64 {
+        u.iter()
+            .zip(v)
+            .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+    }
+
+    #[test]
+    fn steady_solves_match_the_unplanned_solve() {
+        for b in [1usize, 2, 3, 5, 7] {
+            for period in [1usize, 2, 3] {
+                for n in [400usize, 1000, 2051] {
+                    let a = periodic(n, b, period, 0.0);
+                    let factor = a.cholesky().unwrap();
+                    // (short orders may hold too few cycles for a plan)
+                    let long = n >= 4 * LANES * lcm(b, period);
+                    assert!(
+                        factor.steady_plan().is_some() || !long,
+                        "b {b} p {period} n {n}"
+                    );
+                    if let Some(plan) = factor.steady_plan() {
+                        assert_eq!(plan.span % lcm(b, period), 0);
+                        assert!(plan.start + LANES * plan.span <= n);
+                    }
+                    let (rhs, x, y) = solves(&a);
+                    let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    assert!(
+                        max_difference(&x, &y) < 1e-13 * scale,
+                        "b {b} p {period} n {n}"
+                    );
+                    // the snapped factor still solves A itself
+                    let mut back = vec![0.0; n];
+                    a.mul_vec(&x, &mut back);
+                    assert!(max_difference(&back, &rhs) < 10.0 * STEADY_TOLERANCE);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn snapping_moves_the_factor_within_the_tolerance_only() {
+        let (n, b) = (1000usize, 5usize);
+        let a = periodic(n, b, 2, 0.0);
+        let exact = a.cholesky_unsnapped();
+        let mut snapped = exact.clone();
+        snap_interior(&mut snapped, n, b);
+        let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let moved = max_difference(&exact, &snapped);
+        assert!(
+            moved > 0.0 && moved <= STEADY_TOLERANCE * scale,
+            "{moved:e}"
+        );
+    }
+
+    #[test]
+    fn an_irregular_interior_gets_no_steady_plan() {
+        // entries scattered by 1e-6: nothing is snapped, the segmented solve takes over
+        let a = periodic(1000, 5, 1, 1e-6);
+        assert!(a.cholesky().unwrap().steady_plan().is_none());
+        let (_, x, y) = solves(&a);
+        assert!(max_difference(&x, &y) < 1e-12);
+    }
+}
