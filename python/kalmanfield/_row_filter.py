@@ -31,10 +31,11 @@ def positive_float(value: object, name: str) -> float:
     return float(value)
 
 
-def images(z: npt.ArrayLike, width: int, missing: bool = False) -> np.ndarray:
+def images(z: npt.ArrayLike, width: int, missing: bool = False, finite: bool = True) -> np.ndarray:
     """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
     uint8/uint16/int/float32 inputs are converted; bool and complex are refused; infinite
-    pixels are refused, and NaN pixels too unless `missing` (NaN = missing observation)."""
+    pixels are refused, and NaN pixels too unless `missing` (NaN = missing observation).
+    finite=False skips the pixel check (for callers whose kernel checks every pixel)."""
     arr = real_array(z, "images")
     if arr.ndim not in (2, 3):
         raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
@@ -42,7 +43,7 @@ def images(z: npt.ArrayLike, width: int, missing: bool = False) -> np.ndarray:
         raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
     if arr.shape[-2] == 0:
         raise ValueError("the images have no rows")
-    if np.isfinite(arr.sum()):  # the fast path
+    if not finite or np.isfinite(arr.sum()):  # the fast path
         return arr
     if missing and not np.isinf(arr).any():
         return arr

@@ -13,6 +13,8 @@ from ._validation import positive_int, real_array
 from .ar_field_model import ARFieldModel
 
 _MODES = ("exact", "toeplitz")
+# how the Rust kernel reports a NaN or infinite pixel (FieldError::NonFinite)
+_KERNEL_NON_FINITE = "NaN or infinite pixels"
 
 
 class ScalarRowFilter(RowFilter):
@@ -82,6 +84,14 @@ class ScalarRowFilter(RowFilter):
         released). NaN pixels are missing observations. `noise_var`: per-pixel σ_θ² map
         broadcastable to z's shape (> 0; inf = missing); None = the filter's noise_var.
         Returns float64 of z's shape."""
+        if noise_var is None:
+            # the kernel checks every pixel in its own pass over the row: no pass here
+            # unless it finds a NaN (then a missing pixel) or infinite one (refused below)
+            try:
+                return self._filter_checked(images(z, self._width, finite=False))
+            except ValueError as err:
+                if _KERNEL_NON_FINITE not in str(err):
+                    raise
         arr = images(z, self._width, missing=True)
         missing = np.isnan(arr)
         if noise_var is None and not missing.any():
