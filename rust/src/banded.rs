@@ -766,7 +766,7 @@ pub(crate) fn substitute<A: Arith, const B: usize, const REV: bool>(
     );
     let whole = start + (end - start) / B * B;
     let mut ring = *window;
-    for group in (start..whole).step_by(B.max(1)) {
+    for group in (start..whole).step_by(B) {
         macro_rules! ring_steps {
             ($($r:literal)*) => {$(
                 if $r < B {
