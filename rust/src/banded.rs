@@ -316,12 +316,17 @@ pub(crate) type Lanes = [f64; LANES];
 pub(crate) trait LaneCoefficients: std::ops::Index<Range<usize>, Output = Self> {
     /// Entry i for every lane.
     fn lanes(&self, i: usize) -> Lanes;
+    /// Number of entries.
+    fn count(&self) -> usize;
 }
 
 impl LaneCoefficients for [Lanes] {
     #[inline(always)]
     fn lanes(&self, i: usize) -> Lanes {
         self[i]
+    }
+    fn count(&self) -> usize {
+        self.len()
     }
 }
 
@@ -330,7 +335,11 @@ impl LaneCoefficients for [f64] {
     fn lanes(&self, i: usize) -> Lanes {
         [self[i]; LANES]
     }
+    fn count(&self) -> usize {
+        self.len()
+    }
 }
+
 /// Smallest order solved by segments.
 const MIN_SEGMENTED: usize = 16 * LANES;
 /// The bandwidths with unrolled kernels (those of the row filters; at most 7, see
@@ -381,6 +390,16 @@ struct Direction {
 }
 
 impl Direction {
+    /// This substitution for [`solve_by_segments`] (bandwidth b).
+    fn data(&self, b: usize) -> SegmentData<'_, [Lanes]> {
+        SegmentData {
+            steps: &self.steps,
+            responses: &self.responses,
+            ends: &self.ends,
+            ends_stride: b * b,
+        }
+    }
+
     fn new(f: &BandCholesky, coef: &[f64], reverse: bool) -> Direction {
         let (n, b) = (f.size, f.bandwidth);
         let span = segment_span(n, b);
@@ -685,7 +704,7 @@ impl BandCholesky {
     }
 
     /// Both substitutions by segments (see [`Segmented`]) on the lane-major copy `rows` of
-    /// the segmented part of x.
+    /// the segmented part of x (the first LANES · span entries: no lead).
     #[inline(always)]
     fn solve_segmented<A: Arith, const B: usize>(
         &self,
@@ -693,42 +712,82 @@ impl BandCholesky {
         rows: &mut [Lanes],
         s: &Segmented,
     ) {
-        let (n, span) = (self.size, s.span);
-        let whole = LANES * span;
-        assert!(whole <= n && n == x.len() && rows.len() == span);
-        assert!(s.forward.steps.len() == span * (B + 1) && s.forward.lead == 0);
-        assert!(s.backward.steps.len() == span * (B + 1) && s.backward.lead == n - whole);
-        let inv = |i: usize| self.inverse_diagonal[i];
-        // forward: the segments (read from x), their corrections, then the remainder
+        let whole = LANES * s.span;
+        assert!(s.forward.steps.len() == s.span * (B + 1) && s.forward.lead == 0);
+        assert!(s.backward.steps.len() == s.span * (B + 1) && s.backward.lead == x.len() - whole);
+        let (forward, backward) = (s.forward.data(B), s.backward.data(B));
         let per_lane = |t: usize| t * B * (B + 1);
-        let steps = &s.forward.steps[..];
-        let windows = forward_steps::<A, B, _>(&x[..whole], rows, steps, per_lane);
-        let ends = |k: usize| &s.forward.ends[k * B * B..(k + 1) * B * B];
-        let entering = entering_windows::<A, B, false>(&windows, ends, [0.0; B]);
-        let mut last = entering.1;
-        for (row, h) in rows.iter_mut().zip(s.forward.responses.chunks_exact(B)) {
-            add_responses::<A, B, _>(row, h, &entering.0);
-        }
-        substitute::<A, B, false>(x, slots(&self.forward), inv, whole, n, &mut last);
-        // backward: the remainder, then the segments and their corrections (written to x)
-        let mut lead = [0.0; B];
-        substitute::<A, B, true>(x, slots(&self.backward), inv, 0, n - whole, &mut lead);
-        let windows = lane_steps::<A, B, true, _>(rows, &s.backward.steps[..], per_lane);
-        let ends = |k: usize| &s.backward.ends[k * B * B..(k + 1) * B * B];
-        let (entering, _) = entering_windows::<A, B, true>(&windows, ends, lead);
-        let mut segments = x[..whole].chunks_exact_mut(span);
-        let mut segments: [&mut [f64]; LANES] = std::array::from_fn(|_| segments.next().unwrap());
-        let mut responses = s.backward.responses.chunks_exact(B);
-        for (j, row) in rows.iter().enumerate().rev() {
-            let mut v = *row;
-            if let Some(h) = responses.next() {
-                add_responses::<A, B, _>(&mut v, h, &entering);
-            }
-            for (segment, vk) in segments.iter_mut().zip(v) {
-                segment[j] = vk;
-            }
+        solve_by_segments::<A, B, [Lanes]>(
+            &self.coefficients(),
+            x,
+            rows,
+            0,
+            forward,
+            backward,
+            per_lane,
+        );
+    }
+}
+
+/// One substitution of [`solve_by_segments`]: `steps` its coefficients (group t of B steps
+/// from `steps[group(t)]`, 1/L_ii then the B coefficients per step), `responses` B per
+/// offset into a segment, `ends` the B · B end windows of segment k's responses (in the
+/// substitution's order) at `k · ends_stride` (0: one set shared by all segments).
+pub(crate) struct SegmentData<'a, C: ?Sized> {
+    pub(crate) steps: &'a C,
+    pub(crate) responses: &'a C,
+    pub(crate) ends: &'a [f64],
+    pub(crate) ends_stride: usize,
+}
+
+/// Solves L Lᵀ x = rhs in place with the factor `f`: LANES segments of span = rows.len()
+/// positions from x[start] solved at once on the lane-major `rows`, started from zero
+/// windows and corrected with the responses; the positions before them (the lead) and
+/// after them (the tail) one at a time, with the factor's own coefficients.
+#[inline(always)]
+pub(crate) fn solve_by_segments<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
+    f: &FactorCoefficients,
+    x: &mut [f64],
+    rows: &mut [Lanes],
+    start: usize,
+    forward: SegmentData<C>,
+    backward: SegmentData<C>,
+    group: impl Fn(usize) -> usize + Copy,
+) {
+    let (n, span) = (x.len(), rows.len());
+    let end = start + LANES * span;
+    assert!(end <= n && n == f.inverse_diagonal.len() && f.bandwidth == B);
+    let inv = |i: usize| f.inverse_diagonal[i];
+    // the B responses of each offset into a segment
+    let offsets = |responses: &C| (0..responses.count() / B).map(|t| t * B..(t + 1) * B);
+    // forward: the lead, the segments from zero windows, their corrections, the tail
+    let mut window = [0.0; B];
+    substitute::<A, B, false>(x, slots(f.forward), inv, 0, start, &mut window);
+    let windows = forward_steps::<A, B, C>(&x[start..end], rows, forward.steps, group);
+    let ends = |k: usize| &forward.ends[k * forward.ends_stride..][..B * B];
+    let (entering, mut last) = entering_windows::<A, B, false>(&windows, ends, window);
+    for (row, at) in rows.iter_mut().zip(offsets(forward.responses)) {
+        add_responses::<A, B, C>(row, &forward.responses[at], &entering);
+    }
+    substitute::<A, B, false>(x, slots(f.forward), inv, end, n, &mut last);
+    // backward: the tail, the segments and their corrections (written to x), the lead
+    let mut window = [0.0; B];
+    substitute::<A, B, true>(x, slots(f.backward), inv, 0, n - end, &mut window);
+    let windows = lane_steps::<A, B, true, C>(rows, backward.steps, group);
+    let ends = |k: usize| &backward.ends[k * backward.ends_stride..][..B * B];
+    let (entering, mut last) = entering_windows::<A, B, true>(&windows, ends, window);
+    // corrected in place first: fused with the scatter below, LLVM makes it scalar
+    for (row, at) in rows.iter_mut().rev().zip(offsets(backward.responses)) {
+        add_responses::<A, B, C>(row, &backward.responses[at], &entering);
+    }
+    let mut segments = x[start..end].chunks_exact_mut(span);
+    let mut segments: [&mut [f64]; LANES] = std::array::from_fn(|_| segments.next().unwrap());
+    for (j, row) in rows.iter().enumerate() {
+        for (segment, &vk) in segments.iter_mut().zip(row) {
+            segment[j] = vk;
         }
     }
+    substitute::<A, B, true>(x, slots(f.backward), inv, n - start, n, &mut last);
 }
 
 /// One substitution over the positions [start, end) of its order (position p is x[p], or

@@ -18,8 +18,7 @@
 //! factor (steady or not) then uses the same replaced rows.
 
 use crate::banded::{
-    add_responses, decayed_len, entering_windows, forward_steps, lane_steps, slots, substitute,
-    zero_input_response, Arith, Lanes, LANES,
+    decayed_len, solve_by_segments, zero_input_response, Arith, Lanes, SegmentData, LANES,
 };
 
 /// Relative distance from the middle's coefficients within which a position is steady.
@@ -180,50 +179,25 @@ impl Steady {
         x: &mut [f64],
         rows: &mut [Lanes],
     ) {
-        let (n, start, span) = (f.size(), self.start, self.span);
-        let end = start + LANES * span;
-        assert!(end <= n && n == x.len() && rows.len() == span && f.bandwidth == B);
+        assert!(rows.len() == self.span);
         let groups = self.groups(B);
-        let group = |t: usize| t % groups * B * (B + 1);
-        let inv = |i: usize| f.inverse_diagonal[i];
-        // forward: the lead, the segments from zero windows, their corrections, the tail
-        let mut window = [0.0; B];
-        substitute::<A, B, false>(x, slots(f.forward), inv, 0, start, &mut window);
-        let forward = &self.forward;
-        let windows = forward_steps::<A, B, [f64]>(&x[start..end], rows, &forward.steps[..], group);
-        let (entering, mut last) =
-            entering_windows::<A, B, false>(&windows, |_| &forward.ends[..], window);
-        for (row, h) in rows.iter_mut().zip(forward.responses.chunks_exact(B)) {
-            add_responses::<A, B, [f64]>(row, h, &entering);
-        }
-        substitute::<A, B, false>(x, slots(f.forward), inv, end, n, &mut last);
-        // backward: the tail, the segments and their corrections (written to x), the lead
-        let mut window = [0.0; B];
-        substitute::<A, B, true>(x, slots(f.backward), inv, 0, n - end, &mut window);
-        let backward = &self.backward;
-        let windows = lane_steps::<A, B, true, [f64]>(rows, &backward.steps[..], group);
-        let (entering, mut last) =
-            entering_windows::<A, B, true>(&windows, |_| &backward.ends[..], window);
-        // corrected in place first: fused with the scatter below, LLVM makes it scalar
-        for (row, h) in rows
-            .iter_mut()
-            .rev()
-            .zip(backward.responses.chunks_exact(B))
-        {
-            add_responses::<A, B, [f64]>(row, h, &entering);
-        }
-        let mut segments = x[start..end].chunks_exact_mut(span);
-        let mut segments: [&mut [f64]; LANES] = std::array::from_fn(|_| segments.next().unwrap());
-        for (j, row) in rows.iter().enumerate() {
-            for (segment, &vk) in segments.iter_mut().zip(row) {
-                segment[j] = vk;
-            }
-        }
-        substitute::<A, B, true>(x, slots(f.backward), inv, n - start, n, &mut last);
+        let (forward, backward) = (self.forward.data(), self.backward.data());
+        let shared = move |t: usize| t % groups * B * (B + 1);
+        solve_by_segments::<A, B, [f64]>(f, x, rows, self.start, forward, backward, shared);
     }
 }
 
 impl SteadyDirection {
+    /// This substitution for [`solve_by_segments`]: one set of end windows for all segments.
+    fn data(&self) -> SegmentData<'_, [f64]> {
+        SegmentData {
+            steps: &self.steps,
+            responses: &self.responses,
+            ends: &self.ends,
+            ends_stride: 0,
+        }
+    }
+
     /// `coef`: the direction's coefficients; `position(j')`: the middle position whose
     /// coefficients serve step j'.
     fn new(
