@@ -191,6 +191,8 @@ impl BandLdlBatch {
             3 => self.solve_fixed::<A, 3>(lane, x),
             5 => self.solve_fixed::<A, 5>(lane, x),
             7 => self.solve_fixed::<A, 7>(lane, x),
+            11 => self.solve_fixed::<A, 11>(lane, x),
+            19 => self.solve_fixed::<A, 19>(lane, x),
             _ => self.solve_dynamic::<A>(lane, x),
         }
     }

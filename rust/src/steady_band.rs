@@ -10,19 +10,34 @@
 //! position at a time with the factor's own coefficients.
 //!
 //! The interior is made exactly periodic when the factor is made ([`snap_interior`]): the
-//! rows of L within [`STEADY_TOLERANCE`] (relative) of the row's middle in the same phase
-//! are replaced by the middle's. The band of P_e the row model is fitted to is itself
-//! computed to about 1e-11 (sums over the W modes of the row), so the factor's rows scatter
-//! at that level anyway; the replaced factor solves a system within ~1e-10 of A (solutions
-//! within ~3e-11, tested), far below the filter's own approximation. Every solve of the
-//! factor (steady or not) then uses the same replaced rows.
+//! rows of L within a tolerance (relative) of the row's middle in the same phase are
+//! replaced by the middle's. The band of P_e the row model is fitted to is itself computed
+//! to about 1e-11 (sums over the W modes of the row), so the factor's rows scatter at that
+//! level anyway: for n_y ≤ 2 the tolerance is 1e-10 and the replaced factor solves a
+//! system within ~1e-10 of A (solutions within ~3e-11, tested). The fit of the AR model
+//! along the row goes through the whitened row basis, whose conditioning grows fast with
+//! n_y: the interior rows scatter by ~3e-10 for n_y = 3 and ~1e-7 for n_y = 4 (ρ = 0.9).
+//! The tolerance is 1e-10, widened to 1e-9 where rounding noise (flat across the interior,
+//! unlike a slow convergence from the ends) leaves less than half of a long factor steady
+//! (see [`snap_interior`]): n_y = 3 at ρ = 0.9, whose filtered images then move by ≤ 7e-8
+//! relative (float32 resolution; 1e-10 relative at ρ = 0.5). Not 1e-7 for
+//! n_y = 4: its systems amplify a change of the factor's rows ~500× (the rounding noise
+//! of Λ itself, consistent across rows, is not amplified so), so those factors keep their
+//! rows and the per-segment solves. Every solve of the factor (steady or not) uses the
+//! same rows.
+
+use std::ops::Range;
 
 use crate::banded::{
     decayed_len, solve_by_segments, zero_input_response, Arith, Lanes, SegmentData, LANES,
 };
 
-/// Relative distance from the middle's coefficients within which a position is steady.
-pub(crate) const STEADY_TOLERANCE: f64 = 1e-10;
+/// Relative distances from the middle's coefficients within which a position is steady,
+/// tried smallest first (see [`snap_interior`]).
+pub(crate) const STEADY_TOLERANCES: [f64; 2] = [1e-10, 1e-9];
+/// The shortest factor whose interior may be snapped at a wider tolerance (see
+/// [`snap_interior`]): on shorter ones a slow convergence from the ends looks flat.
+const MIN_NOISE_ORDER: usize = 1024;
 /// The longest period looked for (the state order of the row filters is at most 4).
 const MAX_PERIOD: usize = 8;
 
@@ -51,32 +66,60 @@ pub(crate) struct SteadyDirection {
 }
 
 /// Makes the interior of the band factor `l` (rows of b + 1 entries, see `SymmetricBand`)
-/// exactly periodic: the rows within [`STEADY_TOLERANCE`] of the middle row of the same
-/// phase become copies of it, over the longest such range around the middle among the
-/// periods 1..=8 (a period that does not fit leaves only a short range, and nothing is
-/// replaced outside it).
-pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) {
+/// exactly periodic: the rows within a tolerance of the middle row of the same phase
+/// become copies of it, over the longest such range around the middle among the periods
+/// 1..=8 (a period that does not fit leaves only a short range, and nothing is replaced
+/// outside it); returns the tolerance.
+///
+/// The tolerance is the smallest of [`STEADY_TOLERANCES`]; a wider one only where the
+/// smallest leaves less than half the factor steady because of rounding noise, not of a
+/// slow convergence from the ends: a factor of at least [`MIN_NOISE_ORDER`] rows whose
+/// wider range covers half of it, and whose rows scatter about as much near the middle
+/// (the central quarter) as over the central half (a converging factor's deviations decay
+/// towards the middle).
+pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<f64> {
+    if n < 2 * MAX_PERIOD {
+        return None;
+    }
     let row = |i: usize| i * (b + 1)..(i + 1) * (b + 1);
-    let close = |i: usize, r: usize, scale: f64| {
-        (0..=b).all(|m| (l[i * (b + 1) + m] - l[r * (b + 1) + m]).abs() <= STEADY_TOLERANCE * scale)
-    };
-    let range = |period: usize| {
+    // the largest deviation from the middle rows over `positions`, relative to their scale
+    let deviation = |period: usize, positions: Range<usize>| {
+        let l = &*l;
         let middle = n / 2 / period * period;
         let scale = l[row(middle).start..row(middle + period - 1).end]
             .iter()
             .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
-        periodic_range(n, period, |i, r| close(i, r, scale))
+        positions.fold(0.0f64, |d, i| {
+            let (li, lr) = (&l[row(i)], &l[row(reference(n, i, period))]);
+            li.iter()
+                .zip(lr)
+                .fold(d, |d, (p, q)| d.max((p - q).abs() / scale))
+        })
     };
-    if n < 2 * MAX_PERIOD {
-        return;
-    }
-    let (period, (lo, hi)) = longest(range);
+    let steady = |tolerance: f64| {
+        longest(|period| periodic_range(n, period, |i, _| deviation(period, i..i + 1) <= tolerance))
+    };
+    let noise_limited = |period: usize| {
+        let half = deviation(period, n / 4..3 * n / 4);
+        n >= MIN_NOISE_ORDER && deviation(period, 3 * n / 8..5 * n / 8) >= half / 4.0
+    };
+    let smallest = (STEADY_TOLERANCES[0], steady(STEADY_TOLERANCES[0]));
+    let widened = STEADY_TOLERANCES[1..]
+        .iter()
+        .map(|&tolerance| (tolerance, steady(tolerance)))
+        .find(|&(_, (period, (lo, hi)))| 2 * (hi - lo) >= n && noise_limited(period));
+    let (_, (_, (lo, hi))) = smallest;
+    let (tolerance, (period, (lo, hi))) = match widened {
+        Some(wider) if 2 * (hi - lo) < n => wider,
+        _ => smallest,
+    };
     for i in lo..hi {
         let r = reference(n, i, period);
         if r != i {
             l.copy_within(row(r), row(i).start);
         }
     }
+    Some(tolerance)
 }
 
 /// The middle position of an order-n factor with the phase of position i.
@@ -239,7 +282,9 @@ mod tests {
         let mut a = SymmetricBand::zeros(n, b);
         for i in 0..n {
             let jitter = noise * ((i * 7919) % 97) as f64 / 97.0;
-            a.add(i, i, 2.5 + 0.3 * (i % period) as f64 + jitter);
+            // (the wider bands' longer off-diagonal sums need a larger diagonal)
+            let diagonal = if b <= 7 { 2.5 } else { 3.5 };
+            a.add(i, i, diagonal + 0.3 * (i % period) as f64 + jitter);
             for k in i.saturating_sub(b)..i {
                 a.add(
                     i,
@@ -269,13 +314,13 @@ mod tests {
 
     #[test]
     fn steady_solves_match_the_unplanned_solve() {
-        for b in [1usize, 2, 3, 5, 7] {
-            for period in [1usize, 2, 3] {
-                for n in [400usize, 1000, 2051] {
+        for b in [1usize, 2, 3, 5, 7, 11, 19] {
+            for period in [1usize, 2, 3, 4] {
+                for n in [400usize, 1000, 2051, 5000] {
                     let a = periodic(n, b, period, 0.0);
                     let factor = a.cholesky().unwrap();
                     // (short orders may hold too few cycles for a plan)
-                    let long = n >= 4 * LANES * lcm(b, period);
+                    let long = n >= 5 * LANES * lcm(b, period);
                     assert!(
                         factor.steady_plan().is_some() || !long,
                         "b {b} p {period} n {n}"
@@ -293,7 +338,7 @@ mod tests {
                     // the snapped factor still solves A itself
                     let mut back = vec![0.0; n];
                     a.mul_vec(&x, &mut back);
-                    assert!(max_difference(&back, &rhs) < 10.0 * STEADY_TOLERANCE);
+                    assert!(max_difference(&back, &rhs) < 10.0 * STEADY_TOLERANCES[0]);
                 }
             }
         }
@@ -305,19 +350,46 @@ mod tests {
         let a = periodic(n, b, 2, 0.0);
         let exact = a.cholesky_unsnapped();
         let mut snapped = exact.clone();
-        snap_interior(&mut snapped, n, b);
+        // an exactly periodic matrix: its factor settles to rounding, the smallest tolerance
+        assert_eq!(
+            snap_interior(&mut snapped, n, b),
+            Some(STEADY_TOLERANCES[0])
+        );
         let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let moved = max_difference(&exact, &snapped);
         assert!(
-            moved > 0.0 && moved <= STEADY_TOLERANCE * scale,
+            moved > 0.0 && moved <= STEADY_TOLERANCES[0] * scale,
             "{moved:e}"
         );
     }
 
     #[test]
+    fn an_interior_scattered_by_rounding_noise_is_snapped_at_its_level() {
+        // diagonal (~3.5) scattered by up to 2e-9 (as an ill-conditioned fit leaves it): the
+        // smallest tolerance finds short ranges only, the next one the whole interior
+        let (n, b) = (2000usize, 11usize);
+        let a = periodic(n, b, 3, 2e-9);
+        let exact = a.cholesky_unsnapped();
+        let mut snapped = exact.clone();
+        let tolerance = snap_interior(&mut snapped, n, b).unwrap();
+        assert_eq!(tolerance, STEADY_TOLERANCES[1]);
+        let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(max_difference(&exact, &snapped) <= tolerance * scale);
+        let factor = a.cholesky().unwrap();
+        assert!(factor.steady_plan().is_some());
+        let (rhs, x, y) = solves(&a);
+        let solution = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(max_difference(&x, &y) < 1e-13 * solution);
+        let mut back = vec![0.0; n];
+        a.mul_vec(&x, &mut back);
+        assert!(max_difference(&back, &rhs) < 10.0 * tolerance);
+    }
+
+    #[test]
     fn an_irregular_interior_gets_no_steady_plan() {
-        // entries scattered by 1e-6: nothing is snapped, the segmented solve takes over
-        let a = periodic(1000, 5, 1, 1e-6);
+        // entries scattered by 1e-4, beyond every tolerance: nothing is snapped, the
+        // segmented solve takes over
+        let a = periodic(1000, 5, 1, 1e-4);
         assert!(a.cholesky().unwrap().steady_plan().is_none());
         let (_, x, y) = solves(&a);
         assert!(max_difference(&x, &y) < 1e-12);
