@@ -82,13 +82,18 @@ pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<f64> {
         return None;
     }
     let row = |i: usize| i * (b + 1)..(i + 1) * (b + 1);
-    // the largest deviation from the middle rows over `positions`, relative to their scale
+    // per period: the largest entry of the middle rows, the scale of the tolerances
+    let scales: Vec<f64> = (1..=MAX_PERIOD)
+        .map(|period| {
+            let middle = n / 2 / period * period;
+            l[row(middle).start..row(middle + period - 1).end]
+                .iter()
+                .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()))
+        })
+        .collect();
+    // the largest deviation from the middle rows over `positions`, relative to the scale
     let deviation = |period: usize, positions: Range<usize>| {
-        let l = &*l;
-        let middle = n / 2 / period * period;
-        let scale = l[row(middle).start..row(middle + period - 1).end]
-            .iter()
-            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+        let (l, scale) = (&*l, scales[period - 1]);
         positions.fold(0.0f64, |d, i| {
             let (li, lr) = (&l[row(i)], &l[row(reference(n, i, period))]);
             li.iter()
@@ -99,19 +104,20 @@ pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<f64> {
     let steady = |tolerance: f64| {
         longest(|period| periodic_range(n, period, |i, _| deviation(period, i..i + 1) <= tolerance))
     };
+    let covers_half = |(lo, hi): (usize, usize)| 2 * (hi - lo) >= n;
     let noise_limited = |period: usize| {
         let half = deviation(period, n / 4..3 * n / 4);
         n >= MIN_NOISE_ORDER && deviation(period, 3 * n / 8..5 * n / 8) >= half / 4.0
     };
     let smallest = (STEADY_TOLERANCES[0], steady(STEADY_TOLERANCES[0]));
-    let widened = STEADY_TOLERANCES[1..]
-        .iter()
-        .map(|&tolerance| (tolerance, steady(tolerance)))
-        .find(|&(_, (period, (lo, hi)))| 2 * (hi - lo) >= n && noise_limited(period));
-    let (_, (_, (lo, hi))) = smallest;
-    let (tolerance, (period, (lo, hi))) = match widened {
-        Some(wider) if 2 * (hi - lo) < n => wider,
-        _ => smallest,
+    let (tolerance, (period, (lo, hi))) = if covers_half(smallest.1 .1) {
+        smallest
+    } else {
+        STEADY_TOLERANCES[1..]
+            .iter()
+            .map(|&tolerance| (tolerance, steady(tolerance)))
+            .find(|&(_, (period, range))| covers_half(range) && noise_limited(period))
+            .unwrap_or(smallest)
     };
     for i in lo..hi {
         let r = reference(n, i, period);
