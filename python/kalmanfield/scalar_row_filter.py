@@ -44,6 +44,9 @@ class ScalarRowFilter(RowFilter):
         O(W³) step, so it suits wide rows and one-off calls; it ignores the larger error near
         the row's ends — the README gives the loss).
     The per-row models are built on the first call for a given image height and cached.
+    With smooth=True the filter also keeps the RTS pass's store of filtered states between
+    calls (height × width × n_y float64 per thread that filtered a frame; allocating it
+    afresh cost a fifth of the smoothed run): it is freed with the filter.
 
     Missing pixels and per-pixel noise: :meth:`filter` takes NaN pixels as missing
     observations and an optional per-pixel noise variance map; they enter the row update

@@ -212,32 +212,56 @@ impl DiagonalBand {
             x.len() == y.len() && self.diagonals.first().is_some_and(|d| d.len() == x.len()),
             "DiagonalBand::mul_vec: wrong lengths"
         );
-        // blocks of outputs small enough for the inputs they read to stay in L1
-        const BLOCK: usize = 512;
-        let n = x.len();
-        for start in (0..n).step_by(BLOCK) {
-            let end = (start + BLOCK).min(n);
-            let diagonal = &self.diagonals[0][start..end];
-            for ((y, x), a) in y[start..end].iter_mut().zip(&x[start..end]).zip(diagonal) {
-                *y = a * x;
-            }
+        #[cfg(target_arch = "x86_64")]
+        if fused_available() {
+            // SAFETY: the CPU has FMA and AVX2.
+            return unsafe { self.mul_vec_fused(x, y) };
+        }
+        self.mul_vec_with::<Plain>(x, y)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma,avx2")]
+    unsafe fn mul_vec_fused(&self, x: &[f64], y: &mut [f64]) {
+        self.mul_vec_with::<Fused>(x, y)
+    }
+
+    /// The interior (every diagonal's two terms exist) CHUNK outputs at a time, summed in
+    /// registers over the diagonals; the b outputs at each end one by one.
+    #[inline(always)]
+    fn mul_vec_with<A: Arith>(&self, x: &[f64], y: &mut [f64]) {
+        const CHUNK: usize = 8;
+        let (n, b) = (x.len(), self.diagonals.len() - 1);
+        let edge = |i: usize| -> f64 {
+            let mut sum = self.diagonals[0][i] * x[i];
             for (d, diagonal) in self.diagonals.iter().enumerate().skip(1) {
-                // y_i += A(i, i − d) x_{i−d}, then y_i += A(i + d, i) x_{i+d}
-                let low = start.max(d);
-                if low < end {
-                    let below = x[low - d..end - d].iter().zip(&diagonal[low - d..end - d]);
-                    for (y, (x, a)) in y[low..end].iter_mut().zip(below) {
-                        *y += a * x;
-                    }
+                if i >= d {
+                    sum = A::add_product(sum, diagonal[i - d], x[i - d]);
                 }
-                let high = end.min(n - d);
-                if high > start {
-                    let above = x[start + d..high + d].iter().zip(&diagonal[start..high]);
-                    for (y, (x, a)) in y[start..high].iter_mut().zip(above) {
-                        *y += a * x;
-                    }
+                if i + d < n {
+                    sum = A::add_product(sum, diagonal[i], x[i + d]);
                 }
             }
+            sum
+        };
+        let interior_end = b + n.saturating_sub(2 * b) / CHUNK * CHUNK;
+        for i in (0..b.min(n)).chain(interior_end.max(b)..n) {
+            y[i] = edge(i);
+        }
+        let chunk =
+            |v: &[f64], at: usize| -> [f64; CHUNK] { v[at..at + CHUNK].try_into().unwrap() };
+        for start in (b..interior_end).step_by(CHUNK) {
+            let (a, v) = (chunk(&self.diagonals[0], start), chunk(x, start));
+            let mut sum: [f64; CHUNK] = std::array::from_fn(|k| a[k] * v[k]);
+            for (d, diagonal) in self.diagonals.iter().enumerate().skip(1) {
+                let (below, above) = (chunk(x, start - d), chunk(x, start + d));
+                let (lower, upper) = (chunk(diagonal, start - d), chunk(diagonal, start));
+                for k in 0..CHUNK {
+                    sum[k] = A::add_product(sum[k], lower[k], below[k]);
+                    sum[k] = A::add_product(sum[k], upper[k], above[k]);
+                }
+            }
+            y[start..start + CHUNK].copy_from_slice(&sum);
         }
     }
 }
@@ -1308,6 +1332,10 @@ mod tests {
             (515, 7),
             (1030, 3),
             (1, 1),
+            (37, 19),
+            (38, 19),
+            (47, 19),
+            (300, 11),
         ] {
             let a = test_matrix(n, b);
             let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
