@@ -1341,9 +1341,17 @@ mod tests {
             let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
             let (mut rows, mut diagonals) = (vec![0.0; n], vec![0.0; n]);
             a.mul_vec(&x, &mut rows);
-            DiagonalBand::new(&a).mul_vec(&x, &mut diagonals);
-            for (u, v) in diagonals.iter().zip(&rows) {
+            let by_diagonals = DiagonalBand::new(&a);
+            by_diagonals.mul_vec(&x, &mut diagonals);
+            // and the portable build (the dispatch takes the fused one on FMA machines)
+            let mut plain = vec![0.0; n];
+            by_diagonals.mul_vec_with::<Plain>(&x, &mut plain);
+            for ((u, p), v) in diagonals.iter().zip(&plain).zip(&rows) {
                 assert!((u - v).abs() < 1e-12 * (1.0 + v.abs()), "n {n} b {b}");
+                assert!(
+                    (p - v).abs() < 1e-12 * (1.0 + v.abs()),
+                    "plain: n {n} b {b}"
+                );
             }
         }
     }
