@@ -55,6 +55,20 @@ def test_rust_equals_reference_on_wide_rows(order, rho, width):
         np.testing.assert_allclose(got, want, atol=1e-10 * np.abs(z).max())
 
 
+@pytest.mark.parametrize("order,rho,width", [((3, 3), 0.9, 512), ((4, 4), 0.5, 256)])
+def test_rust_equals_reference_with_a_periodic_interior(order, rho, width):
+    """Wide rows: the interior columns of Λ take the middle column's term in both (within
+    INTERIOR_TOLERANCE), and the Rust factor's steady interior is solved by broadcast
+    segments (steady_band.rs)."""
+    model = kf.ARFieldModel([rho, rho], list(order))
+    _, z = noisy(model, (10, width), 1.0, 4)
+    plan = ref.scalar_filter_plan(model.rho, model.order, 1.0, 1.0, width, 10)
+    for smooth in (False, True):
+        got = kf.ScalarRowFilter(model, 1.0, width, smooth=smooth).filter(z)
+        want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, 1.0, smooth=smooth, plan=plan)
+        np.testing.assert_allclose(got, want, atol=1e-9 * np.abs(z).max())
+
+
 def test_order_four_agrees_to_the_conditioning_of_the_row_basis():
     model = kf.ARFieldModel([0.95, 0.9], [4, 4])
     _, z = noisy(model, (20, 16), 1.0, 1)

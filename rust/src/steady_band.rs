@@ -11,20 +11,19 @@
 //!
 //! The interior is made exactly periodic when the factor is made ([`snap_interior`]): the
 //! rows of L within a tolerance (relative) of the row's middle in the same phase are
-//! replaced by the middle's. The band of P_e the row model is fitted to is itself computed
-//! to about 1e-11 (sums over the W modes of the row), so the factor's rows scatter at that
-//! level anyway: for n_y ≤ 2 the tolerance is 1e-10 and the replaced factor solves a
-//! system within ~1e-10 of A (solutions within ~3e-11, tested). The fit of the AR model
-//! along the row goes through the whitened row basis, whose conditioning grows fast with
-//! n_y: the interior rows scatter by ~3e-10 for n_y = 3 and ~1e-7 for n_y = 4 (ρ = 0.9).
-//! The tolerance is 1e-10, widened to 1e-9 where rounding noise (flat across the interior,
-//! unlike a slow convergence from the ends) leaves less than half of a long factor steady
-//! (see [`snap_interior`]): n_y = 3 at ρ = 0.9, whose filtered images then move by ≤ 7e-8
-//! relative (float32 resolution; 1e-10 relative at ρ = 0.5). Not 1e-7 for
-//! n_y = 4: its systems amplify a change of the factor's rows ~500× (the rounding noise
-//! of Λ itself, consistent across rows, is not amplified so), so those factors keep their
-//! rows and the per-segment solves. Every solve of the factor (steady or not) uses the
-//! same rows.
+//! replaced by the middle's. The row filter's Λ is itself exactly periodic in its interior
+//! (`ScalarRowFilter::precision` gives the interior columns the middle column's term, their
+//! fits differing by rounding only), so the factor's rows converge from the ends and then
+//! scatter by the factorisation's own rounding: ~1e-12 for n_y ≤ 3 (ρ = 0.9), within the
+//! tolerance 1e-10, so the replaced factor solves a system within ~1e-10 of A (solutions
+//! within ~3e-11, tested). For n_y = 4 the factorisation of the ill-conditioned whitened
+//! systems scatters by ~2e-9 (ρ = 0.9): the tolerance is widened to 1e-9 only where such
+//! rounding noise (flat across the interior, unlike a slow convergence from the ends) leaves
+//! less than half of a long factor steady (see [`snap_interior`]), and not to 1e-8, which
+//! would cover the n_y = 4 interiors: their systems amplify a change of the factor's rows
+//! ~500× (solutions moved by ~5e-6 relative at ρ = 0.9, by per cents at ρ = 0.95), so those
+//! factors keep their rows and the per-segment solves. Every solve of the factor (steady or
+//! not) uses the same rows.
 
 use std::ops::Range;
 

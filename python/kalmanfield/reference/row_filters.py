@@ -326,34 +326,62 @@ def _block_cov(band, i, j):
     return band[j - i][i] if i <= j else band[i - j][j].T
 
 
+INTERIOR_TOLERANCE = 1e-5
+"""Twin of ``scalar_row_filter.rs``'s: the relative distance within which a column's term of
+Λ is replaced by the middle column's (``markov_precision``)."""
+
+
+def column_model(band: list[np.ndarray], ell: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(Γ_ℓ, D_ℓ) of the block AR model of column ℓ over its past ℓ−1, …, ℓ−min(ℓ, m)
+    (SPEC [P 3.11, 3.12, 3.34–3.36]): Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹,
+    D_ℓ = C_{ℓℓ} − Γ_ℓ C_{past,ℓ} (symmetrised)."""
+    n = band[0].shape[1]
+    past = list(range(ell - 1, max(ell - m, 0) - 1, -1))
+    dcov = band[0][ell]
+    gam = np.zeros((n, 0))
+    if past:
+        cpp = np.block([[_block_cov(band, i, j) for j in past] for i in past])
+        clp = np.hstack([_block_cov(band, ell, j) for j in past])
+        gam = np.linalg.solve(cpp, clp.T).T
+        dcov = dcov - gam @ clp.T
+    return gam, 0.5 * (dcov + dcov.T)
+
+
 def markov_precision(band: list[np.ndarray], m: int) -> sparse.csr_matrix:
-    """Precision Λ = Lᵀ D⁻¹ L of the block AR(m) model along the row fitted to the band
-    (SPEC [P 3.11, 3.12, 3.34–3.36] generalised: Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹,
-    D_ℓ = C_{ℓℓ} − Γ_ℓ C_{past,ℓ}).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
+    """Precision Λ = Lᵀ D⁻¹ L = Σ_ℓ B_ℓᵀ D_ℓ⁻¹ B_ℓ of the block AR(m) model along the row
+    fitted to the band (``column_model``); a column with a full past whose term lies within
+    INTERIOR_TOLERANCE of the middle column's takes the middle one's (twin of
+    ``ScalarRowFilter::precision``: an exactly periodic interior).  Interleaved ordering
+    (ℓ, i) ↦ ℓ·n + i."""
     width, n = band[0].shape[0], band[0].shape[1]
-    lrows, lcols, lvals, dinv = [], [], [], []
-    eye = np.eye(n)
+    middle = width // 2
+    central = contribution(*column_model(band, middle, m), n) if middle >= m else None
+    rows, cols, vals = [], [], []
     for ell in range(width):
         past = list(range(ell - 1, max(ell - m, 0) - 1, -1))
-        blocks = [eye]
-        dcov = band[0][ell]
-        if past:
-            cpp = np.block([[_block_cov(band, i, j) for j in past] for i in past])
-            clp = np.hstack([_block_cov(band, ell, j) for j in past])
-            gam = np.linalg.solve(cpp, clp.T).T
-            dcov = dcov - gam @ clp.T
-            blocks += [-gam[:, k * n : (k + 1) * n] for k in range(len(past))]
-        for blk, col in zip(blocks, [ell] + past):
-            r, c = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-            lrows.append((ell * n + r).ravel())
-            lcols.append((col * n + c).ravel())
-            lvals.append(blk.ravel())
-        dinv.append(np.linalg.inv(0.5 * (dcov + dcov.T)))
+        q = contribution(*column_model(band, ell, m), n)
+        if central is not None and len(past) == m and is_settled(q, central):
+            q = central
+        index = np.concatenate([np.arange(c * n, (c + 1) * n) for c in [ell] + past])
+        r, c = np.meshgrid(index, index, indexing="ij")
+        rows.append(r.ravel())
+        cols.append(c.ravel())
+        vals.append(q.ravel())
     size = width * n
-    lmat = sparse.csr_matrix(
-        (np.concatenate(lvals), (np.concatenate(lrows), np.concatenate(lcols))), (size, size)
+    return sparse.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), (size, size)
     )
-    return (lmat.T @ sparse.block_diag(dinv, format="csr") @ lmat).tocsr()
+
+
+def contribution(gam: np.ndarray, dcov: np.ndarray, n: int) -> np.ndarray:
+    """Column ℓ's term Bᵀ D⁻¹ B of Λ, B = [I, −Γ_ℓ] over the columns ℓ, ℓ−1, …, ℓ−k."""
+    b = np.hstack([np.eye(n), -gam])
+    return b.T @ np.linalg.inv(dcov) @ b
+
+
+def is_settled(q: np.ndarray, central: np.ndarray) -> bool:
+    """Whether q lies within INTERIOR_TOLERANCE of the middle column's contribution."""
+    return bool(np.max(np.abs(q - central)) <= INTERIOR_TOLERANCE * np.max(np.abs(central)))
 
 
 def banded_cholesky(mat: sparse.spmatrix, bandwidth: int) -> np.ndarray:
