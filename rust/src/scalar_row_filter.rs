@@ -12,9 +12,11 @@
 //!     smoother along the row is one banded SPD solve with A = Λ + HᵀH/σ_θ² (Cholesky
 //!     precomputed): ŷ_k = ŷ_e + A⁻¹ (y ⊗ e₀)/σ_θ².
 //! The model is refitted row by row to the optimal filter's P_e,k (modal Riccati of
-//! `vector_row_filter`) until its band changes by < 1e-3, then frozen. The start (rows 1..n)
-//! is the information form with the exact stationary prior. The RTS pass over the rows uses
-//! P_k ≈ A_k⁻¹, P_e,k+1⁻¹ ≈ Λ_{k+1}.
+//! `vector_row_filter`) until its band changes by < 1e-3, then frozen. In the interior of a
+//! row the columns' fits differ by rounding only; there Λ takes the middle column's term
+//! (exactly periodic, see `precision`). The start (rows 1..n) is the information form with
+//! the exact stationary prior. The RTS pass over the rows uses P_k ≈ A_k⁻¹,
+//! P_e,k+1⁻¹ ≈ Λ_{k+1}.
 //! The band of P_e comes from the modes of `row_modes` (exact eigenbasis, or the Toeplitz
 //! modes of the infinite row: no O(W³) step).
 //! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted

@@ -21,9 +21,8 @@
 //! rounding noise (flat across the interior, unlike a slow convergence from the ends) leaves
 //! less than half of a long factor steady (see [`snap_interior`]), and not to 1e-8, which
 //! would cover the n_y = 4 interiors: their systems amplify a change of the factor's rows
-//! ~500× (solutions moved by ~5e-6 relative at ρ = 0.9, by per cents at ρ = 0.95), so those
-//! factors keep their rows and the per-segment solves. Every solve of the factor (steady or
-//! not) uses the same rows.
+//! ~500× (a snap at 1e-7 moved the solutions by 5e-5), so those factors keep their rows and
+//! the per-segment solves. Every solve of the factor (steady or not) uses the same rows.
 
 use std::ops::Range;
 
