@@ -189,7 +189,7 @@ impl SymmetricBand {
 }
 
 /// A symmetric band matrix stored by diagonals, each contiguous: its product with a vector
-/// is 2b + 1 vectorised passes, with no dependency between the outputs.
+/// has no dependency between the outputs (summed a chunk at a time over the diagonals).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiagonalBand {
     /// [d][i] = A(i + d, i), d = 0..=b.

@@ -97,20 +97,20 @@ impl RowModes {
     /// Band blocks of Σ_j u_j u_jᵀ ⊗ M_j for the lags d = 0..=max_lag: block (ℓ, ℓ + d) is row
     /// ℓ of the d-th matrix ((W − d) × n², row-major n×n blocks); `modal` = M_j per mode.
     pub fn band(&self, modal: &[Small], n: usize, max_lag: usize) -> Vec<Mat<f64>> {
-        let w = self.width();
-        let lags = 0..=max_lag.min(w - 1);
+        let (w, last) = (self.width(), max_lag.min(self.width() - 1));
         match self {
-            Self::Exact(modes) => exact_band(modes, modal, n, max_lag.min(w - 1)),
+            Self::Exact(modes) => exact_band(modes, modal, n, last),
             Self::Toeplitz { weights, .. } => {
                 let step = std::f64::consts::PI / (weights.len() - 1) as f64;
-                lags.map(|d| {
-                    let mut block = Small::zeros();
-                    for (g, (m, wg)) in modal.iter().zip(weights).enumerate() {
-                        block += m * (wg * (step * (d * g) as f64).cos());
-                    }
-                    Mat::from_fn(w - d, n * n, |_, ab| block[(ab / n, ab % n)])
-                })
-                .collect()
+                (0..=last)
+                    .map(|d| {
+                        let mut block = Small::zeros();
+                        for (g, (m, wg)) in modal.iter().zip(weights).enumerate() {
+                            block += m * (wg * (step * (d * g) as f64).cos());
+                        }
+                        Mat::from_fn(w - d, n * n, |_, ab| block[(ab / n, ab % n)])
+                    })
+                    .collect()
             }
         }
     }
