@@ -69,6 +69,70 @@ def test_rust_equals_reference_with_a_periodic_interior(order, rho, width):
         np.testing.assert_allclose(got, want, atol=1e-9 * np.abs(z).max())
 
 
+def textbook_rts(z, model, noise_var, weights):
+    """The quasi-optimal filter and its RTS pass with dense solves and the explicit product
+    Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) (module doc of reference.row_filters, part 3)."""
+    height, width = z.shape
+    n = model.order[0]
+    plan = ref.scalar_filter_plan(model.rho, model.order, 1.0, noise_var, width, height)
+    tmat, lower = ref.row_basis(model.rho[0], n)
+    s = np.kron(np.eye(width), tmat @ ref.companion(model.rho[0], n) @ lower)
+    state, info, seen = np.zeros(width * n), np.zeros(width * n), 0.0
+    systems, filt, pred = [], [], []
+    for step, zk, wk in zip(plan, np.nan_to_num(z), weights):
+        obs = np.kron(np.diag(wk), np.outer(lower[step["index"]], lower[step["index"]]))
+        hz = np.kron(wk * zk, lower[step["index"]])
+        if step["predict"]:
+            state = s @ state
+            a = step["prec"].toarray() + obs
+            innov = np.kron(wk * (zk - state[::n]), lower[0])
+            pred.append(state)
+            state = state + np.linalg.solve(a, innov)
+        else:
+            seen, info = seen + obs, info + hz
+            a = step["prec"].toarray() + seen
+            pred.append(None)
+            state = np.linalg.solve(a, info)
+        systems.append(a)
+        filt.append(state)
+    means = list(filt)
+    for t in range(height - 2, n - 2, -1):
+        lam = plan[t + 1]["prec"].toarray()
+        means[t] = filt[t] + np.linalg.solve(systems[t], s.T @ lam @ (means[t + 1] - pred[t + 1]))
+    first = min(n, height) - 1
+    return np.array(
+        [
+            lower[n - 1 - t if t < n else 0] @ means[max(t, first)].reshape(width, n).T
+            for t in range(height)
+        ]
+    )
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("order", [(1, 1), (2, 2), (3, 2)])
+def test_smoothing_pass_equals_the_textbook_product_by_the_precision(order, weighted):
+    """The RTS pass takes Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) from what the passes already solved
+    (d_{t+1} + Hᵀ W (z − H ŷˢ_{t+1})), not from a product by Λ: the same smoothed image."""
+    model = kf.ARFieldModel([0.9, 0.8], list(order))
+    height, width = 12, 10
+    _, z = noisy(model, (height, width), 0.6, 7)
+    weights = np.full((height, width), 1.0 / 0.6)
+    if weighted:
+        rng = np.random.default_rng(3)
+        weights *= rng.uniform(0.3, 3.0, (height, width))
+        weights[rng.random((height, width)) < 0.2] = 0.0
+        z = np.where(weights > 0, z, np.nan)
+    want = textbook_rts(z, model, 0.6, weights)
+    noise = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), np.inf)
+    got = kf.ScalarRowFilter(model, 0.6, width, smooth=True).filter(z, noise if weighted else None)
+    twin = ref.scalar_row_filter(
+        np.nan_to_num(z), model.rho, model.order, 1.0, 0.6, smooth=True, weights=weights
+    )
+    scale = np.nanmax(np.abs(z))
+    np.testing.assert_allclose(twin, want, atol=1e-10 * scale, rtol=0)
+    np.testing.assert_allclose(got, want, atol=1e-9 * scale, rtol=0)
+
+
 def test_order_four_agrees_to_the_conditioning_of_the_row_basis():
     model = kf.ARFieldModel([0.95, 0.9], [4, 4])
     _, z = noisy(model, (20, 16), 1.0, 1)

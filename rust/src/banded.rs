@@ -188,84 +188,6 @@ impl SymmetricBand {
     }
 }
 
-/// A symmetric band matrix stored by diagonals, each contiguous: its product with a vector
-/// has no dependency between the outputs (summed a chunk at a time over the diagonals).
-#[derive(Debug, Clone, PartialEq)]
-pub struct DiagonalBand {
-    /// [d][i] = A(i + d, i), d = 0..=b.
-    diagonals: Vec<Vec<f64>>,
-}
-
-impl DiagonalBand {
-    /// The diagonals of `a`.
-    pub fn new(a: &SymmetricBand) -> Self {
-        let (n, b) = (a.size, a.bandwidth);
-        let diagonals = (0..=b.min(n.saturating_sub(1)))
-            .map(|d| (0..n - d).map(|i| a.lower_entry(i + d, i)).collect())
-            .collect();
-        Self { diagonals }
-    }
-
-    /// y = A x.
-    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
-        assert!(
-            x.len() == y.len() && self.diagonals.first().is_some_and(|d| d.len() == x.len()),
-            "DiagonalBand::mul_vec: wrong lengths"
-        );
-        #[cfg(target_arch = "x86_64")]
-        if fused_available() {
-            // SAFETY: the CPU has FMA and AVX2.
-            return unsafe { self.mul_vec_fused(x, y) };
-        }
-        self.mul_vec_with::<Plain>(x, y)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "fma,avx2")]
-    unsafe fn mul_vec_fused(&self, x: &[f64], y: &mut [f64]) {
-        self.mul_vec_with::<Fused>(x, y)
-    }
-
-    /// The interior (every diagonal's two terms exist) CHUNK outputs at a time, summed in
-    /// registers over the diagonals; the b outputs at each end one by one.
-    #[inline(always)]
-    fn mul_vec_with<A: Arith>(&self, x: &[f64], y: &mut [f64]) {
-        const CHUNK: usize = 8;
-        let (n, b) = (x.len(), self.diagonals.len() - 1);
-        let edge = |i: usize| -> f64 {
-            let mut sum = self.diagonals[0][i] * x[i];
-            for (d, diagonal) in self.diagonals.iter().enumerate().skip(1) {
-                if i >= d {
-                    sum = A::add_product(sum, diagonal[i - d], x[i - d]);
-                }
-                if i + d < n {
-                    sum = A::add_product(sum, diagonal[i], x[i + d]);
-                }
-            }
-            sum
-        };
-        let interior_end = b + n.saturating_sub(2 * b) / CHUNK * CHUNK;
-        for i in (0..b.min(n)).chain(interior_end.max(b)..n) {
-            y[i] = edge(i);
-        }
-        let chunk =
-            |v: &[f64], at: usize| -> [f64; CHUNK] { v[at..at + CHUNK].try_into().unwrap() };
-        for start in (b..interior_end).step_by(CHUNK) {
-            let (a, v) = (chunk(&self.diagonals[0], start), chunk(x, start));
-            let mut sum: [f64; CHUNK] = std::array::from_fn(|k| a[k] * v[k]);
-            for (d, diagonal) in self.diagonals.iter().enumerate().skip(1) {
-                let (below, above) = (chunk(x, start - d), chunk(x, start + d));
-                let (lower, upper) = (chunk(diagonal, start - d), chunk(diagonal, start));
-                for k in 0..CHUNK {
-                    sum[k] = A::add_product(sum[k], lower[k], below[k]);
-                    sum[k] = A::add_product(sum[k], upper[k], above[k]);
-                }
-            }
-            y[start..start + CHUNK].copy_from_slice(&sum);
-        }
-    }
-}
-
 /// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan
 /// (the bandwidths without an unrolled kernel).
 fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
@@ -1193,11 +1115,6 @@ mod tests {
         let x: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let mut rhs = vec![0.0; n];
         a.mul_vec(&x, &mut rhs);
-        let mut by_diagonals = vec![0.0; n];
-        DiagonalBand::new(&a).mul_vec(&x, &mut by_diagonals);
-        for (u, v) in by_diagonals.iter().zip(&rhs) {
-            assert!((u - v).abs() < 1e-12);
-        }
         // dense check of mul_vec
         for (i, got) in rhs.iter().enumerate() {
             let want: f64 = (0..n).map(|k| a.get(i, k) * x[k]).sum();
@@ -1320,39 +1237,6 @@ mod tests {
                 .zip(&y)
                 .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
             assert!(most < snapped_tolerance(n), "b {b} n {n}: {most:e}");
-        }
-    }
-
-    #[test]
-    fn diagonal_products_match_the_row_products() {
-        for (n, b) in [
-            (3usize, 7usize),
-            (511, 2),
-            (512, 7),
-            (515, 7),
-            (1030, 3),
-            (1, 1),
-            (37, 19),
-            (38, 19),
-            (47, 19),
-            (300, 11),
-        ] {
-            let a = test_matrix(n, b);
-            let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
-            let (mut rows, mut diagonals) = (vec![0.0; n], vec![0.0; n]);
-            a.mul_vec(&x, &mut rows);
-            let by_diagonals = DiagonalBand::new(&a);
-            by_diagonals.mul_vec(&x, &mut diagonals);
-            // and the portable build (the dispatch takes the fused one on FMA machines)
-            let mut plain = vec![0.0; n];
-            by_diagonals.mul_vec_with::<Plain>(&x, &mut plain);
-            for ((u, p), v) in diagonals.iter().zip(&plain).zip(&rows) {
-                assert!((u - v).abs() < 1e-12 * (1.0 + v.abs()), "n {n} b {b}");
-                assert!(
-                    (p - v).abs() < 1e-12 * (1.0 + v.abs()),
-                    "plain: n {n} b {b}"
-                );
-            }
         }
     }
 

@@ -21,6 +21,7 @@ pub mod lag_products;
 pub mod local_moments;
 pub mod noise;
 pub mod product_field;
+mod row_columns;
 pub mod row_modes;
 pub mod scalar_row_filter;
 pub mod segment;

@@ -16,7 +16,8 @@
 //! row the columns' fits differ by rounding only; there Λ takes the middle column's term
 //! (exactly periodic, see `precision`). The start (rows 1..n) is the information form with
 //! the exact stationary prior. The RTS pass over the rows uses P_k ≈ A_k⁻¹,
-//! P_e,k+1⁻¹ ≈ Λ_{k+1}.
+//! P_e,k+1⁻¹ ≈ Λ_{k+1}; the product by Λ_{k+1} comes from what the passes already solved
+//! (`smoothing_rhs`), so the pass costs one solve per row.
 //! The band of P_e comes from the modes of `row_modes` (exact eigenbasis, or the Toeplitz
 //! modes of the infinite row: no O(W³) step).
 //! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted
@@ -24,10 +25,11 @@
 //! for the nominal noise variance).
 
 use crate::band_ldl::{BandLdlBatch, LANES};
-use crate::banded::{fused_available, BandCholesky, DiagonalBand, SymmetricBand};
+use crate::banded::{fused_available, BandCholesky, SymmetricBand};
 use crate::buffer_pool::BufferPool;
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
+use crate::row_columns::{self as columns, for_order, Nominal, PerPixel};
 use crate::row_modes::RowModes;
 use crate::vector_row_filter::{all_finite, check_sizes, ModeCovariance, RowDynamics, Small};
 use faer::Mat;
@@ -77,8 +79,6 @@ struct Plan {
     rows: usize,
     settled: bool,
     precisions: Vec<SymmetricBand>,
-    /// The same by diagonals (the products of the RTS pass).
-    products: Vec<DiagonalBand>,
     factors: Vec<BandCholesky>,
     row_precision: Vec<usize>,
     row_factor: Vec<usize>,
@@ -87,10 +87,6 @@ struct Plan {
 impl Plan {
     fn precision(&self, t: usize) -> &SymmetricBand {
         &self.precisions[self.row_precision[t.min(self.rows) - 1]]
-    }
-
-    fn product(&self, t: usize) -> &DiagonalBand {
-        &self.products[self.row_precision[t.min(self.rows) - 1]]
     }
 
     fn factor(&self, t: usize) -> &BandCholesky {
@@ -333,7 +329,6 @@ impl ScalarRowFilter {
             rows: 0,
             settled: false,
             precisions: Vec::new(),
-            products: Vec::new(),
             factors: Vec::new(),
             row_precision: Vec::new(),
             row_factor: Vec::new(),
@@ -381,7 +376,6 @@ impl ScalarRowFilter {
                 break;
             }
         }
-        plan.products = plan.precisions.iter().map(DiagonalBand::new).collect();
         Ok(plan)
     }
 
@@ -480,11 +474,10 @@ impl ScalarRowFilter {
         std::array::from_fn(|a| if a < self.dynamics.order { h[a] } else { 0.0 })
     }
 
-    /// Prediction and innovation in one pass over the columns: state_ℓ ← S state_ℓ, then
-    /// gain_in_ℓ = ((z_ℓ − state_ℓ[0]) r_ℓ, 0, …), r_ℓ = 1/σ²_θ,ℓ (`weights`, a pixel of
-    /// weight 0 contributing 0; None: 1/σ_θ² everywhere): the innovation enters through
-    /// state row 0 only. False when `weights` is None and a pixel of the row is NaN or
-    /// infinite (checked here, in the same pass).
+    /// Prediction and innovation in one pass over the columns (`row_columns::predict`):
+    /// state_ℓ ← S state_ℓ, gain_in_ℓ = ((z_ℓ − state_ℓ[0]) r_ℓ, 0, …), r_ℓ = 1/σ²_θ,ℓ
+    /// (`weights`; None: 1/σ_θ² everywhere). False when `weights` is None and a pixel of the
+    /// row is NaN or infinite.
     #[inline(always)]
     fn predict(
         &self,
@@ -493,13 +486,16 @@ impl ScalarRowFilter {
         gain_in: &mut [f64],
         weights: Option<&[f64]>,
     ) -> bool {
-        let (s, nominal) = (&self.transition, 1.0 / self.noise_var);
-        match self.dynamics.order {
-            1 => predict_fixed::<1>(state, s, row, gain_in, nominal, weights),
-            2 => predict_fixed::<2>(state, s, row, gain_in, nominal, weights),
-            3 => predict_fixed::<3>(state, s, row, gain_in, nominal, weights),
-            _ => predict_fixed::<4>(state, s, row, gain_in, nominal, weights),
-        }
+        let s = &self.transition;
+        for_order!(self.dynamics.order, |N, K| match weights {
+            None => columns::predict::<N, K, _>(s, state, row, gain_in, self.nominal()),
+            Some(r) => columns::predict::<N, K, _>(s, state, row, gain_in, PerPixel(r)),
+        })
+    }
+
+    /// 1/σ_θ² for every pixel.
+    fn nominal(&self) -> Nominal {
+        Nominal(1.0 / self.noise_var)
     }
 
     /// target_ℓ = base_ℓ + d_ℓ (base None: target_ℓ += d_ℓ) and out[ℓ] = h · target_ℓ, h =
@@ -515,56 +511,41 @@ impl ScalarRowFilter {
         out: &mut [f64],
     ) {
         let h = self.readout_row(index);
-        match (self.dynamics.order, base) {
-            (1, None) => update_fixed::<1>(target, d, &h, out),
-            (2, None) => update_fixed::<2>(target, d, &h, out),
-            (3, None) => update_fixed::<3>(target, d, &h, out),
-            (_, None) => update_fixed::<4>(target, d, &h, out),
-            (1, Some(base)) => correct_fixed::<1>(base, d, target, &h, out),
-            (2, Some(base)) => correct_fixed::<2>(base, d, target, &h, out),
-            (3, Some(base)) => correct_fixed::<3>(base, d, target, &h, out),
-            (_, Some(base)) => correct_fixed::<4>(base, d, target, &h, out),
-        }
+        for_order!(self.dynamics.order, |N, K| columns::correct::<N, K>(
+            base, d, target, &h, out
+        ))
     }
 
     /// row[ℓ] = h · state_ℓ with h = row `index` of L (the image row held in that state row).
     #[inline(always)]
     fn readout(&self, state: &[f64], index: usize, row: &mut [f64]) {
         let h = self.readout_row(index);
-        match self.dynamics.order {
-            1 => readout_fixed::<1>(state, &h, row),
-            2 => readout_fixed::<2>(state, &h, row),
-            3 => readout_fixed::<3>(state, &h, row),
-            _ => readout_fixed::<4>(state, &h, row),
-        }
+        for_order!(self.dynamics.order, |N, K| columns::readout::<N, K>(
+            state, &h, row
+        ))
     }
 
-    /// The RTS pass's d_ℓ = Sᵀ (Λ (smoothed − S filtered))_ℓ, Λ by diagonals; `predicted`
-    /// is scratch.
+    /// The RTS pass's right-hand side d_t = (I ⊗ Sᵀ) Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1), without a
+    /// product by Λ: A_{t+1} = Λ_{t+1} + Hᵀ R⁻¹ H, and both the forward gain
+    /// (A_{t+1} (ŷ_{t+1} − ŷ_e,t+1) = Hᵀ R⁻¹ (z_{t+1} − H ŷ_e,t+1)) and the previous RTS step
+    /// (A_{t+1} (ŷˢ_{t+1} − ŷ_{t+1}) = d_{t+1}) were solved with A_{t+1}'s factor, so
+    /// Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) = d_{t+1} + Hᵀ R⁻¹ (z_{t+1} − H ŷˢ_{t+1}), H = e₀ per column.
+    /// `row`, `weights`: image row t + 1 (as in `predict`); `carried`: d_{t+1} on entry (zero
+    /// for the last row), d_t on return, as is `d` (which the solve then overwrites).
     #[inline(always)]
     fn smoothing_rhs(
         &self,
-        product: &DiagonalBand,
-        filtered: &[f64],
+        row: &[f64],
+        weights: Option<&[f64]>,
         smoothed: &[f64],
-        predicted: &mut [f64],
+        carried: &mut [f64],
         d: &mut [f64],
     ) {
         let s = &self.transition;
-        let st = s.transpose();
-        match self.dynamics.order {
-            1 => residual_fixed::<1>(filtered, s, smoothed, predicted),
-            2 => residual_fixed::<2>(filtered, s, smoothed, predicted),
-            3 => residual_fixed::<3>(filtered, s, smoothed, predicted),
-            _ => residual_fixed::<4>(filtered, s, smoothed, predicted),
-        }
-        product.mul_vec(predicted, d);
-        match self.dynamics.order {
-            1 => transition_fixed::<1>(d, &st),
-            2 => transition_fixed::<2>(d, &st),
-            3 => transition_fixed::<3>(d, &st),
-            _ => transition_fixed::<4>(d, &st),
-        }
+        for_order!(self.dynamics.order, |N, K| match weights {
+            None => columns::smoothing_rhs::<N, K, _>(s, row, self.nominal(), smoothed, carried, d),
+            Some(r) => columns::smoothing_rhs::<N, K, _>(s, row, PerPixel(r), smoothed, carried, d),
+        })
     }
 
     /// Factors the weighted systems A_t of rows t ∈ `rows` (1-based, at most LANES; spare
@@ -719,11 +700,13 @@ impl ScalarRowFilter {
         }
         let first = n.min(height);
         let mut smoothed = state;
-        let mut predicted = vec![0.0; size];
+        let mut carried = vec![0.0; size];
         let mut d = vec![0.0; size];
         for t in (first..height).rev() {
             let filt = &filtered[(t - 1) * size..t * size];
-            self.smoothing_rhs(plan.product(t + 1), filt, &smoothed, &mut predicted, &mut d);
+            let next = t * w..(t + 1) * w;
+            let next_weights = weights.map(|r| &r[next.clone()]);
+            self.smoothing_rhs(&z[next], next_weights, &smoothed, &mut carried, &mut d);
             solve(t, &mut d)?;
             self.correct(
                 Some(filt),
@@ -737,115 +720,6 @@ impl ScalarRowFilter {
             self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
         }
         Ok(())
-    }
-}
-
-#[inline(always)]
-fn readout_fixed<const N: usize>(state: &[f64], h: &[f64; 4], row: &mut [f64]) {
-    for (x, v) in row.iter_mut().zip(state.chunks_exact(N)) {
-        *x = (0..N).map(|a| h[a] * v[a]).sum();
-    }
-}
-
-#[inline(always)]
-fn transition_fixed<const N: usize>(state: &mut [f64], s: &Small) {
-    let m = fixed_matrix::<N>(s);
-    for v in state.chunks_exact_mut(N) {
-        let new = apply_fixed(&m, v);
-        v.copy_from_slice(&new);
-    }
-}
-
-#[inline(always)]
-fn fixed_matrix<const N: usize>(s: &Small) -> [[f64; N]; N] {
-    std::array::from_fn(|a| std::array::from_fn(|b| s[(a, b)]))
-}
-
-/// m v for one column's state.
-#[inline(always)]
-fn apply_fixed<const N: usize>(m: &[[f64; N]; N], v: &[f64]) -> [f64; N] {
-    std::array::from_fn(|a| (0..N).map(|b| m[a][b] * v[b]).sum())
-}
-
-#[inline(always)]
-fn predict_fixed<const N: usize>(
-    state: &mut [f64],
-    s: &Small,
-    row: &[f64],
-    gain_in: &mut [f64],
-    nominal: f64,
-    weights: Option<&[f64]>,
-) -> bool {
-    let m = fixed_matrix::<N>(s);
-    let columns = state.chunks_exact_mut(N).zip(gain_in.chunks_exact_mut(N));
-    let step = |v: &mut [f64], g: &mut [f64], zl: f64, r: f64| {
-        let new = apply_fixed(&m, v);
-        v.copy_from_slice(&new);
-        g[0] = (zl - new[0]) * r;
-        g[1..].fill(0.0);
-    };
-    match weights {
-        None => {
-            let mut finite = true;
-            for ((v, g), zl) in columns.zip(row) {
-                step(v, g, *zl, nominal);
-                finite &= zl.is_finite();
-            }
-            finite
-        }
-        Some(weights) => {
-            for (((v, g), zl), r) in columns.zip(row).zip(weights) {
-                // a missing pixel's value may be NaN: its term is 0, not NaN · 0
-                step(v, g, if *r > 0.0 { *zl } else { 0.0 }, *r);
-            }
-            true
-        }
-    }
-}
-
-#[inline(always)]
-fn correct_fixed<const N: usize>(
-    base: &[f64],
-    d: &[f64],
-    target: &mut [f64],
-    h: &[f64; 4],
-    out: &mut [f64],
-) {
-    let columns = target.chunks_exact_mut(N).zip(base.chunks_exact(N));
-    for ((x, (v, b)), dl) in out.iter_mut().zip(columns).zip(d.chunks_exact(N)) {
-        for a in 0..N {
-            v[a] = b[a] + dl[a];
-        }
-        *x = (0..N).map(|a| h[a] * v[a]).sum();
-    }
-}
-
-#[inline(always)]
-fn update_fixed<const N: usize>(target: &mut [f64], d: &[f64], h: &[f64; 4], out: &mut [f64]) {
-    let columns = target.chunks_exact_mut(N).zip(d.chunks_exact(N));
-    for (x, (v, dl)) in out.iter_mut().zip(columns) {
-        for a in 0..N {
-            v[a] += dl[a];
-        }
-        *x = (0..N).map(|a| h[a] * v[a]).sum();
-    }
-}
-
-/// predicted_ℓ = smoothed_ℓ − S filtered_ℓ.
-#[inline(always)]
-fn residual_fixed<const N: usize>(
-    filtered: &[f64],
-    s: &Small,
-    smoothed: &[f64],
-    predicted: &mut [f64],
-) {
-    let m = fixed_matrix::<N>(s);
-    let columns = filtered.chunks_exact(N).zip(smoothed.chunks_exact(N));
-    for (p, (f, sm)) in predicted.chunks_exact_mut(N).zip(columns) {
-        let new = apply_fixed(&m, f);
-        for a in 0..N {
-            p[a] = sm[a] - new[a];
-        }
     }
 }
 

@@ -69,8 +69,12 @@ observed (H = (I 0 … 0)).
        output       x̂_k = (ŷ_k)₀
    RTS pass over rows (smooth=True), model version of J_k = P_k Sᵀ P_e,k+1⁻¹ with P_k ≈ A_k⁻¹,
    P_e,k+1⁻¹ ≈ Λ_{k+1}:
-       ŷˢ_k = ŷ_k + A_k⁻¹ (I_W ⊗ S'ᵀ) Λ_{k+1} (ŷˢ_{k+1} − ŷ_e,k+1)     banded mat-vec + solve
+       ŷˢ_k = ŷ_k + A_k⁻¹ d_k,  d_k = (I_W ⊗ S'ᵀ) Λ_{k+1} (ŷˢ_{k+1} − ŷ_e,k+1)  one solve
        x̂ˢ_k = (ŷˢ_k)₀ ; rows t < n: x̂ˢ_t = (L ŷˢ_n)_{n−t}
+   The product by Λ_{k+1} needs no mat-vec: A_{k+1} = Λ_{k+1} + HᵀWH, the forward step solved
+   A_{k+1} (ŷ_{k+1} − ŷ_e,k+1) = HᵀW(z̄_{k+1} − H ŷ_e,k+1) and the RTS step k+1 solved
+   A_{k+1} (ŷˢ_{k+1} − ŷ_{k+1}) = d_{k+1} (d_H = 0), so
+       Λ_{k+1} (ŷˢ_{k+1} − ŷ_e,k+1) = d_{k+1} + HᵀW (z̄_{k+1} − H ŷˢ_{k+1})      (H = e₀ per column).
    Start (rows t = 1..n, exact when m ≥ n_x, because R_x⁻¹ has half-bandwidth n_x under the
    stationary start of §1.3): Λ_0 = fit of (I ⊗ T_x) (= exact precision),
        A_t = Λ_0 + Σ_{j≤t} I_W ⊗ h_j h_jᵀ / s,   ŷ_t = A_t⁻¹ Σ_{j≤t} z̄_j ⊗ h_j / s,
@@ -530,18 +534,16 @@ def scalar_row_passes(
     a = tmat @ companion(rho[0], n) @ lower  # transition in the whitened basis
     state = np.zeros((width * n, nb))
     info = np.zeros((width * n, nb))  # Σ Hᵀ w z during the static start
-    filt, pred = [], []
+    filt = []
     for step, chol, zk, wk in zip(plan, chols, zb, weights):
         h = lower[step["index"]]
         if step["predict"]:  # prediction, innovation, banded gain solve
             state = _apply_block(a, state, n)
-            pred.append(state)
             innov = zk - state.reshape(width, n, nb)[:, 0, :]  # h = e₀ after the start
             innov = np.where(wk[:, None] > 0, innov * wk[:, None], 0.0)
             gain_in = (h[None, :, None] * innov[:, None, :]).reshape(-1, nb)
             state = state + cho_solve_banded((chol, False), gain_in)
         else:  # static start: information form, exact
-            pred.append(state)
             seen = np.where(wk[:, None] > 0, zk * wk[:, None], 0.0)
             info = info + (h[None, :, None] * seen[:, None, :]).reshape(-1, nb)
             state = cho_solve_banded((chol, False), info)
@@ -550,9 +552,15 @@ def scalar_row_passes(
     means = None
     if smooth:  # RTS over rows: ŷˢ_t = ŷ_t + A_t⁻¹ Sᵀ Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1)
         means = list(filt)
+        carried = np.zeros_like(state)  # d_{t+1} = A_{t+1} (ŷˢ_{t+1} − ŷ_{t+1})
         for t in range(height - 2, t0 - 1, -1):
-            d = plan[t + 1]["prec"] @ (means[t + 1] - pred[t + 1])
-            means[t] = filt[t] + cho_solve_banded((chols[t], False), _apply_block(a.T, d, n))
+            # Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) = d_{t+1} + Hᵀ w (z_{t+1} − H ŷˢ_{t+1}) (module doc)
+            wk = weights[t + 1][:, None]
+            resid = zb[t + 1] - means[t + 1].reshape(width, n, nb)[:, 0, :]
+            lam_e = carried.reshape(width, n, nb).copy()
+            lam_e[:, 0, :] += np.where(wk > 0, resid * wk, 0.0)
+            carried = _apply_block(a.T, lam_e.reshape(-1, nb), n)
+            means[t] = filt[t] + cho_solve_banded((chols[t], False), carried)
         for t in range(t0):
             means[t] = means[t0]
 
