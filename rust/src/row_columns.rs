@@ -10,6 +10,7 @@
 
 use crate::vector_row_filter::Small;
 use std::array::from_fn;
+use std::ops::Range;
 
 /// The longest block (n = 3).
 const MAX_BLOCK: usize = 12;
@@ -63,6 +64,10 @@ pub(crate) use for_order;
 pub(crate) trait PixelPrecision: Copy {
     /// (z_ℓ, r_ℓ); a missing pixel's value may be NaN: it gives (0, 0), a term 0, not NaN · 0.
     fn pixel(self, row: &[f64], column: usize) -> (f64, f64);
+    /// r_ℓ alone.
+    fn at(self, column: usize) -> f64;
+    /// The precisions of `columns` (indexed from 0 on), for a block.
+    fn columns(self, columns: Range<usize>) -> Self;
     /// Whether the prediction checks the pixels for NaN and infinity (nominal precisions:
     /// weighted rows are checked when their systems are made).
     fn checks(self) -> bool;
@@ -82,6 +87,14 @@ impl PixelPrecision for Nominal {
         (row[column], self.0)
     }
 
+    fn at(self, _column: usize) -> f64 {
+        self.0
+    }
+
+    fn columns(self, _columns: Range<usize>) -> Self {
+        self
+    }
+
     fn checks(self) -> bool {
         true
     }
@@ -92,6 +105,14 @@ impl PixelPrecision for PerPixel<'_> {
     fn pixel(self, row: &[f64], column: usize) -> (f64, f64) {
         let r = self.0[column];
         (if r > 0.0 { row[column] } else { 0.0 }, r)
+    }
+
+    fn at(self, column: usize) -> f64 {
+        self.0[column]
+    }
+
+    fn columns(self, columns: Range<usize>) -> Self {
+        Self(&self.0[columns])
     }
 
     fn checks(self) -> bool {
@@ -185,42 +206,38 @@ fn predict_block<const N: usize, const K: usize>(
     let x = block_mut::<K>(state, at);
     let new = m.apply(x);
     *x = new;
-    let column = at / N;
+    let columns = at / N..at / N + K / N;
+    let (row, precision) = (&row[columns.clone()], precision.columns(columns));
     *block_mut::<K>(gain_in, at) = from_fn(|k| {
         if k % N == 0 {
-            let (z, r) = precision.pixel(row, column + k / N);
+            let (z, r) = precision.pixel(row, k / N);
             (z - new[k]) * r
         } else {
             0.0
         }
     });
     if precision.checks() {
-        for z in &row[column..column + K / N] {
+        for z in row {
             *finite &= z.is_finite();
         }
     }
 }
 
-/// The filter's correction (`base` None: target_ℓ += d_ℓ) or the RTS step (target_ℓ = base_ℓ
-/// + d_ℓ), and out[ℓ] = h · target_ℓ, in one pass.
+/// The filter's correction: target_ℓ += d_ℓ and out[ℓ] = h · target_ℓ, in one pass.
 #[inline(always)]
 pub(crate) fn correct<const N: usize, const K: usize>(
-    base: Option<&[f64]>,
     d: &[f64],
     target: &mut [f64],
     h: &[f64; 4],
     out: &mut [f64],
 ) {
-    match base {
-        None => over_blocks!(target.len(), N, K, |at| update_block(at, d, target, h, out)),
-        Some(base) => over_blocks!(target.len(), N, K, |at| correct_block(
-            at, base, d, target, h, out
-        )),
-    }
+    over_blocks!(target.len(), N, K, |at| correct_block(
+        at, d, target, h, out
+    ));
 }
 
 #[inline(always)]
-fn update_block<const N: usize, const K: usize>(
+fn correct_block<const N: usize, const K: usize>(
     at: usize,
     d: &[f64],
     target: &mut [f64],
@@ -233,19 +250,40 @@ fn update_block<const N: usize, const K: usize>(
     read_block::<N, K>(x, h, &mut out[at / N..]);
 }
 
+/// The correction followed by an RTS pass: target_ℓ += d_ℓ and out[ℓ] = r_ℓ (z_ℓ − h · target_ℓ),
+/// the filtered residual that `smooth` turns into the smoothed one (so that the RTS pass
+/// does not read the image again).
 #[inline(always)]
-fn correct_block<const N: usize, const K: usize>(
-    at: usize,
-    base: &[f64],
+pub(crate) fn correct_to_residual<const N: usize, const K: usize>(
     d: &[f64],
     target: &mut [f64],
     h: &[f64; 4],
+    row: &[f64],
+    precision: impl PixelPrecision,
     out: &mut [f64],
 ) {
-    let (bk, dk) = (block::<K>(base, at), block::<K>(d, at));
-    let x = block_mut::<K>(target, at);
-    *x = from_fn(|k| bk[k] + dk[k]);
-    read_block::<N, K>(x, h, &mut out[at / N..]);
+    over_blocks!(target.len(), N, K, |at| residual_block(
+        at, d, target, h, row, precision, out
+    ));
+}
+
+#[inline(always)]
+fn residual_block<const N: usize, const K: usize>(
+    at: usize,
+    d: &[f64],
+    target: &mut [f64],
+    h: &[f64; 4],
+    row: &[f64],
+    precision: impl PixelPrecision,
+    out: &mut [f64],
+) {
+    correct_block::<N, K>(at, d, target, h, out);
+    let columns = at / N..at / N + K / N;
+    let (row, precision) = (&row[columns.clone()], precision.columns(columns.clone()));
+    for (c, o) in out[columns].iter_mut().enumerate() {
+        let (z, r) = precision.pixel(row, c);
+        *o = r * (z - *o);
+    }
 }
 
 /// out[ℓ] = h · state_ℓ.
@@ -268,45 +306,82 @@ fn readout_block<const N: usize, const K: usize>(
     read_block::<N, K>(block::<K>(state, at), h, &mut out[at / N..]);
 }
 
-/// The RTS pass's right-hand side (see `ScalarRowFilter::smoothing_rhs`):
-/// carried_ℓ = d_ℓ = Sᵀ (carried_ℓ + e₀ r_ℓ (z_ℓ − smoothed_ℓ[0])).
+/// One row t of the RTS pass: its filtered states, the solution δ_t of A_t δ_t = d_t (which
+/// becomes d_{t−1}), the smoothed states (ŷˢ_{t+1} in, ŷˢ_t out), d_t (carried over from the
+/// previous step; d_{t−1} out) and the image row (r_tℓ (z_tℓ − h · ŷ_tℓ) in, h · ŷˢ_tℓ out).
+pub(crate) struct RtsRow<'a> {
+    pub filtered: &'a [f64],
+    pub delta: &'a mut [f64],
+    pub smoothed: &'a mut [f64],
+    pub carried: &'a mut [f64],
+    pub out: &'a mut [f64],
+}
+
+/// ŷˢ_t = ŷ_t + δ_t, out = h · ŷˢ_t, and the next right-hand side
+/// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t) = (I ⊗ Sᵀ) (d_t + e₀ r_t (z_t − h · ŷˢ_t)) into `carried`
+/// and `delta` (see `ScalarRowFilter::passes`), with r_t (z_t − h · ŷˢ_t) = (the filtered
+/// residual in `out`) − r_t h · δ_t.
 #[inline(always)]
-pub(crate) fn smoothing_rhs<const N: usize, const K: usize, P: PixelPrecision>(
+pub(crate) fn smooth<const N: usize, const K: usize>(
     s: &Small,
-    row: &[f64],
-    precision: P,
-    smoothed: &[f64],
-    carried: &mut [f64],
-    d: &mut [f64],
+    h: &[f64; 4],
+    precision: impl PixelPrecision,
+    row: RtsRow,
 ) {
     let st = ColumnMatrix::<N>::new(&s.transpose());
-    over_blocks!(carried.len(), N, K, |at| rhs_block(
-        &st, at, row, precision, smoothed, carried, d
+    let RtsRow {
+        filtered,
+        delta,
+        smoothed,
+        carried,
+        out,
+    } = row;
+    over_blocks!(carried.len(), N, K, |at| smooth_block(
+        &st,
+        at,
+        h,
+        precision,
+        RtsRow {
+            filtered,
+            delta: &mut *delta,
+            smoothed: &mut *smoothed,
+            carried: &mut *carried,
+            out: &mut *out,
+        }
     ));
 }
 
 #[inline(always)]
-fn rhs_block<const N: usize, const K: usize>(
+fn smooth_block<const N: usize, const K: usize>(
     st: &ColumnMatrix<N>,
     at: usize,
-    row: &[f64],
+    h: &[f64; 4],
     precision: impl PixelPrecision,
-    smoothed: &[f64],
-    carried: &mut [f64],
-    d: &mut [f64],
+    row: RtsRow,
 ) {
-    let (column, sm) = (at / N, block::<K>(smoothed, at));
-    let c = block_mut::<K>(carried, at);
-    let u: [f64; K] = from_fn(|k| {
+    let columns = at / N..at / N + K / N;
+    let precision = precision.columns(columns.clone());
+    let delta = block_mut::<K>(row.delta, at);
+    let f = block::<K>(row.filtered, at);
+    let x = block_mut::<K>(row.smoothed, at);
+    *x = from_fn(|k| f[k] + delta[k]);
+    let out = &mut row.out[columns];
+    // the residual r (z − h · ŷˢ) of each column, at the entry of its component 0
+    let residual: [f64; K] = from_fn(|k| {
         if k % N == 0 {
-            let (z, r) = precision.pixel(row, column + k / N);
-            c[k] + r * (z - sm[k])
+            let mut hd = h[0] * delta[k];
+            for a in 1..N {
+                hd += h[a] * delta[k + a];
+            }
+            out[k / N] - precision.at(k / N) * hd
         } else {
-            c[k]
+            0.0
         }
     });
-    *c = st.apply(&u);
-    *block_mut::<K>(d, at) = *c;
+    read_block::<N, K>(x, h, out);
+    let c = block_mut::<K>(row.carried, at);
+    *c = st.apply(&from_fn(|k| c[k] + residual[k]));
+    *delta = *c;
 }
 
 #[cfg(test)]
@@ -364,32 +439,47 @@ mod tests {
             &mut gain_in,
             Nominal(2.0)
         ));
-        // correction, RTS step and readout
+        // correction (plain, and to the filtered residual) and readout
         let d: Vec<f64> = (0..len).map(|i| (i as f64 * 0.37).cos()).collect();
         let (mut target, mut out) = (x0.clone(), vec![0.0; width]);
-        correct::<N, K>(None, &d, &mut target, &h, &mut out);
-        let mut fresh = vec![0.0; len];
-        let mut again = vec![0.0; width];
-        correct::<N, K>(Some(&x0), &d, &mut fresh, &h, &mut again);
+        correct::<N, K>(&d, &mut target, &h, &mut out);
+        let (mut again, mut residual) = (x0.clone(), vec![0.0; width]);
+        correct_to_residual::<N, K>(&d, &mut again, &h, &row, PerPixel(&weights), &mut residual);
         let mut read = vec![0.0; width];
         readout::<N, K>(&target, &h, &mut read);
+        assert_eq!(again, target);
         for l in 0..width {
             let v: Vec<f64> = (0..N).map(|a| x0[l * N + a] + d[l * N + a]).collect();
             let want: f64 = (0..N).map(|a| h[a] * v[a]).sum();
             assert_eq!(&target[l * N..(l + 1) * N], &v[..]);
-            assert_eq!(&fresh[l * N..(l + 1) * N], &v[..]);
-            assert_eq!((out[l], again[l], read[l]), (want, want, want));
+            assert_eq!((out[l], read[l]), (want, want));
+            let z = if weights[l] > 0.0 { row[l] } else { 0.0 };
+            assert_eq!(residual[l], weights[l] * (z - want));
         }
-        // the RTS right-hand side
-        let (mut carried, mut rhs) = (d.clone(), vec![0.0; len]);
-        smoothing_rhs::<N, K, _>(&m, &row, Nominal(2.0), &x0, &mut carried, &mut rhs);
+        // an RTS row: ŷˢ = ŷ + δ, its image row, d ← Sᵀ (d + e₀ (residual − r h · δ))
+        let delta0: Vec<f64> = (0..len).map(|i| (i as f64 * 0.71).sin()).collect();
+        let (mut delta, mut smoothed, mut carried) = (delta0.clone(), vec![0.0; len], d.clone());
+        let mut image_row = residual.clone();
+        let rts = RtsRow {
+            filtered: &x0,
+            delta: &mut delta,
+            smoothed: &mut smoothed,
+            carried: &mut carried,
+            out: &mut image_row,
+        };
+        smooth::<N, K>(&m, &h, PerPixel(&weights), rts);
         for l in 0..width {
-            let mut u = d[l * N..(l + 1) * N].to_vec();
-            u[0] += 2.0 * (row[l] - x0[l * N]);
+            let col = l * N..(l + 1) * N;
+            let v: Vec<f64> = (0..N).map(|a| x0[l * N + a] + delta0[l * N + a]).collect();
+            assert_eq!(&smoothed[col.clone()], &v[..]);
+            let hd: f64 = (0..N).map(|a| h[a] * delta0[l * N + a]).sum();
+            let mut u = d[col.clone()].to_vec();
+            u[0] += residual[l] - weights[l] * hd;
             let want = column_apply(&m.transpose(), &u);
-            assert_eq!(&rhs[l * N..(l + 1) * N], &want[..], "N {N} column {l}");
+            assert_eq!(&carried[col.clone()], &want[..], "N {N} column {l}");
+            assert_eq!(image_row[l], (0..N).map(|a| h[a] * v[a]).sum::<f64>());
         }
-        assert_eq!(carried, rhs);
+        assert_eq!(carried, delta);
     }
 
     #[test]

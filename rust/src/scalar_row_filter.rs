@@ -29,7 +29,7 @@ use crate::banded::{fused_available, BandCholesky, SymmetricBand};
 use crate::buffer_pool::BufferPool;
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
-use crate::row_columns::{self as columns, for_order, Nominal, PerPixel};
+use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::RowModes;
 use crate::vector_row_filter::{all_finite, check_sizes, ModeCovariance, RowDynamics, Small};
 use faer::Mat;
@@ -498,22 +498,27 @@ impl ScalarRowFilter {
         Nominal(1.0 / self.noise_var)
     }
 
-    /// target_ℓ = base_ℓ + d_ℓ (base None: target_ℓ += d_ℓ) and out[ℓ] = h · target_ℓ, h =
-    /// row `index` of L, in one pass over the columns: the filter's correction, or the RTS
-    /// step.
+    /// The filter's correction of a row after the start: state_ℓ += d_ℓ, and out[ℓ] = the
+    /// estimate h · state_ℓ (h = e₀: row 0 of L) or, when an RTS pass follows, the filtered
+    /// residual r_ℓ (z_ℓ − h · state_ℓ) that the RTS pass needs (`RtsRow`).
     #[inline(always)]
     fn correct(
         &self,
-        base: Option<&[f64]>,
         d: &[f64],
-        target: &mut [f64],
-        index: usize,
+        state: &mut [f64],
+        residual_of: Option<(&[f64], Option<&[f64]>)>,
         out: &mut [f64],
     ) {
-        let h = self.readout_row(index);
-        for_order!(self.dynamics.order, |N, K| columns::correct::<N, K>(
-            base, d, target, &h, out
-        ))
+        let h = self.readout_row(0);
+        for_order!(self.dynamics.order, |N, K| match residual_of {
+            None => columns::correct::<N, K>(d, state, &h, out),
+            Some((row, None)) => {
+                columns::correct_to_residual::<N, K>(d, state, &h, row, self.nominal(), out)
+            }
+            Some((row, Some(r))) => {
+                columns::correct_to_residual::<N, K>(d, state, &h, row, PerPixel(r), out)
+            }
+        })
     }
 
     /// row[ℓ] = h · state_ℓ with h = row `index` of L (the image row held in that state row).
@@ -525,26 +530,19 @@ impl ScalarRowFilter {
         ))
     }
 
-    /// The RTS pass's right-hand side d_t = (I ⊗ Sᵀ) Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1), without a
-    /// product by Λ: A_{t+1} = Λ_{t+1} + Hᵀ R⁻¹ H, and both the forward gain
-    /// (A_{t+1} (ŷ_{t+1} − ŷ_e,t+1) = Hᵀ R⁻¹ (z_{t+1} − H ŷ_e,t+1)) and the previous RTS step
-    /// (A_{t+1} (ŷˢ_{t+1} − ŷ_{t+1}) = d_{t+1}) were solved with A_{t+1}'s factor, so
-    /// Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) = d_{t+1} + Hᵀ R⁻¹ (z_{t+1} − H ŷˢ_{t+1}), H = e₀ per column.
-    /// `row`, `weights`: image row t + 1 (as in `predict`); `carried`: d_{t+1} on entry (zero
-    /// for the last row), d_t on return, as is `d` (which the solve then overwrites).
+    /// One row t of the RTS pass (`row_columns::smooth`): ŷˢ_t = ŷ_t + δ_t, its image row,
+    /// and the right-hand side of row t − 1,
+    /// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t), without a product by Λ_t: A_t = Λ_t + Hᵀ R⁻¹ H,
+    /// and both the forward gain (A_t (ŷ_t − ŷ_e,t) = Hᵀ R⁻¹ (z_t − H ŷ_e,t)) and this step
+    /// (A_t (ŷˢ_t − ŷ_t) = d_t) were solved with A_t's factor, so
+    /// Λ_t (ŷˢ_t − ŷ_e,t) = d_t + Hᵀ R⁻¹ (z_t − H ŷˢ_t), H = e₀ per column (rows t > n).
+    /// `weights`: row t's (None: nominal).
     #[inline(always)]
-    fn smoothing_rhs(
-        &self,
-        row: &[f64],
-        weights: Option<&[f64]>,
-        smoothed: &[f64],
-        carried: &mut [f64],
-        d: &mut [f64],
-    ) {
-        let s = &self.transition;
+    fn smooth_row(&self, index: usize, weights: Option<&[f64]>, row: RtsRow) {
+        let (s, h) = (&self.transition, self.readout_row(index));
         for_order!(self.dynamics.order, |N, K| match weights {
-            None => columns::smoothing_rhs::<N, K, _>(s, row, self.nominal(), smoothed, carried, d),
-            Some(r) => columns::smoothing_rhs::<N, K, _>(s, row, PerPixel(r), smoothed, carried, d),
+            None => columns::smooth::<N, K>(s, &h, self.nominal(), row),
+            Some(r) => columns::smooth::<N, K>(s, &h, PerPixel(r), row),
         })
     }
 
@@ -689,7 +687,8 @@ impl ScalarRowFilter {
                     return Err(non_finite());
                 }
                 solve(t, &mut gain_in)?;
-                self.correct(None, &gain_in, &mut state, observed(t), out_row);
+                let residual_of = smooth.then_some((row, row_weights));
+                self.correct(&gain_in, &mut state, residual_of, out_row);
             }
             if smooth {
                 filtered[(t - 1) * size..t * size].copy_from_slice(&state);
@@ -700,21 +699,25 @@ impl ScalarRowFilter {
         }
         let first = n.min(height);
         let mut smoothed = state;
+        // d_t, carried from one step to the next; the solve turns `delta` from d_t into δ_t
         let mut carried = vec![0.0; size];
-        let mut d = vec![0.0; size];
-        for t in (first..height).rev() {
-            let filt = &filtered[(t - 1) * size..t * size];
-            let next = t * w..(t + 1) * w;
-            let next_weights = weights.map(|r| &r[next.clone()]);
-            self.smoothing_rhs(&z[next], next_weights, &smoothed, &mut carried, &mut d);
-            solve(t, &mut d)?;
-            self.correct(
-                Some(filt),
-                &d,
-                &mut smoothed,
-                observed(t),
-                &mut out[(t - 1) * w..t * w],
-            );
+        let mut delta = vec![0.0; size];
+        let row_of = |t: usize| (t - 1) * w..t * w;
+        // rows H (δ_H = 0, d_H = 0) down to n (its d_{n−1} is not used: the start rows' A_t
+        // are not Λ_t + Hᵀ R⁻¹ H, and their estimates are read off ŷˢ_n below)
+        let rts_first = if height > n { first } else { height + 1 };
+        for t in (rts_first..=height).rev() {
+            if t < height {
+                solve(t, &mut delta)?;
+            }
+            let rts = RtsRow {
+                filtered: &filtered[(t - 1) * size..t * size],
+                delta: &mut delta,
+                smoothed: &mut smoothed,
+                carried: &mut carried,
+                out: &mut out[row_of(t)],
+            };
+            self.smooth_row(observed(t), weights.map(|r| &r[row_of(t)]), rts);
         }
         for t in 1..first {
             self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
