@@ -15,8 +15,9 @@ use std::ops::Range;
 /// The longest block (n = 3).
 const MAX_BLOCK: usize = 12;
 
-/// Runs `$body` (a call generic over `<N, K>` with `$at` in scope) over the blocks of K
-/// doubles of a `$len`-long state, then over the tail one column (K = N) at a time.
+/// Calls `$block::<N, K>(args)` (the args may use `$at`, the block's first entry) on each
+/// block of K doubles of a `$len`-long state, then `$block::<N, N>` on each column of the
+/// tail.
 macro_rules! over_blocks {
     ($len:expr, $n:ident, $k:ident, |$at:ident| $block:ident($($arg:expr),*)) => {{
         let len = $len;
@@ -156,7 +157,7 @@ fn block_mut<const K: usize>(v: &mut [f64], at: usize) -> &mut [f64; K] {
     (&mut v[at..at + K]).try_into().unwrap()
 }
 
-/// out[c] = h · x_c for the K/n columns of a block starting at column `column`.
+/// out[c] = h · x_c for the K/n columns c of a block (`out` starts at its first column).
 #[inline(always)]
 fn read_block<const N: usize, const K: usize>(x: &[f64; K], h: &[f64; 4], out: &mut [f64]) {
     for (c, o) in out[..K / N].iter_mut().enumerate() {

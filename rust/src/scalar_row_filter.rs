@@ -17,7 +17,7 @@
 //! (exactly periodic, see `precision`). The start (rows 1..n) is the information form with
 //! the exact stationary prior. The RTS pass over the rows uses P_k ≈ A_k⁻¹,
 //! P_e,k+1⁻¹ ≈ Λ_{k+1}; the product by Λ_{k+1} comes from what the passes already solved
-//! (`smoothing_rhs`), so the pass costs one solve per row.
+//! (`smooth_row`), so the pass costs one solve per row.
 //! The band of P_e comes from the modes of `row_modes` (exact eigenbasis, or the Toeplitz
 //! modes of the infinite row: no O(W³) step).
 //! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted
