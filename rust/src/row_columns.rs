@@ -320,7 +320,7 @@ pub(crate) struct RtsRow<'a> {
 
 /// ŷˢ_t = ŷ_t + δ_t, out = h · ŷˢ_t, and the next right-hand side
 /// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t) = (I ⊗ Sᵀ) (d_t + e₀ r_t (z_t − h · ŷˢ_t)) into `carried`
-/// and `delta` (see `ScalarRowFilter::passes`), with r_t (z_t − h · ŷˢ_t) = (the filtered
+/// and `delta` (see `ScalarRowFilter::smooth_row`), with r_t (z_t − h · ŷˢ_t) = (the filtered
 /// residual in `out`) − r_t h · δ_t.
 #[inline(always)]
 pub(crate) fn smooth<const N: usize, const K: usize>(
