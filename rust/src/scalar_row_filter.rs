@@ -667,8 +667,7 @@ impl ScalarRowFilter {
                 return Err(non_finite());
             }
             // 1/σ_θ² per pixel; a pixel of weight 0 is ignored (its value may be NaN)
-            let nominal = 1.0 / self.noise_var;
-            let weight = |ell: usize| row_weights.map_or(nominal, |r| r[ell]);
+            let weight = |ell: usize| row_weights.map_or(self.nominal().0, |r| r[ell]);
             if t <= n {
                 let h = self.lower.row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
