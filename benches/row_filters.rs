@@ -4,6 +4,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use kalmanfield::banded::SymmetricBand;
 use kalmanfield::cascade::sample_into;
+use kalmanfield::row_modes::ModeSet;
 use kalmanfield::scalar_row_filter::ScalarRowFilter;
 use kalmanfield::vector_row_filter::VectorRowFilter;
 use kalmanfield::{FieldModel, Noise};
@@ -31,7 +32,7 @@ fn bench_scalar(c: &mut Criterion) {
         let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
         let z = image(&model, side);
         let mut out = vec![0.0; z.len()];
-        let filter = ScalarRowFilter::new(&model, 1.0, side, None, false).unwrap();
+        let filter = ScalarRowFilter::new(&model, 1.0, side, None, ModeSet::Ends).unwrap();
         filter
             .filter_image(&z, None, &mut out, side, false)
             .unwrap(); // builds the plan

@@ -69,6 +69,47 @@ def test_rust_equals_reference_with_a_periodic_interior(order, rho, width):
         np.testing.assert_allclose(got, want, atol=1e-9 * np.abs(z).max())
 
 
+@pytest.mark.parametrize(
+    "order,rho,noise_var", [((1, 1), 0.8, 1.0), ((2, 2), 0.5, 0.5), ((3, 2), 0.6, 2.0)]
+)
+def test_spliced_ends_equal_the_whole_rows_eigenbasis(order, rho, noise_var):
+    """modes="ends" (the default): the exact band of a 256-point row at both ends of a 600
+    wide row, the Fourier band between, against the whole row's eigenbasis ("exact", an
+    independent computation of the same band) and against the NumPy twin of the splice."""
+    model = kf.ARFieldModel([rho, rho], list(order))
+    width = 600
+    _, z = noisy(model, (12, width), noise_var, 6)
+    scale = np.abs(z).max()
+    ends = kf.ScalarRowFilter(model, noise_var, width, smooth=True)
+    assert ends.modes == "ends" and ends.ends_span == 256
+    exact = kf.ScalarRowFilter(model, noise_var, width, smooth=True, modes="exact")
+    assert exact.ends_span is None
+    got = ends.filter(z)
+    np.testing.assert_allclose(got, exact.filter(z), atol=1e-10 * scale, rtol=0)
+    plan = ref.scalar_filter_plan(
+        model.rho, model.order, 1.0, noise_var, width, 12, modes="ends", span=256
+    )
+    twin = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var, smooth=True, plan=plan)
+    np.testing.assert_allclose(got, twin, atol=1e-10 * scale, rtol=0)
+
+
+def test_spliced_ends_grow_with_the_correlation_and_leave_narrow_rows_whole():
+    # the ends' row must hold the edge effects: longer for a slower-decaying correlation
+    spans = [
+        kf.ScalarRowFilter(kf.ARFieldModel([0.9, rho], [2, 2]), 1.0, 4096).ends_span
+        for rho in (0.5, 0.9, 0.95)
+    ]
+    assert spans[0] == 256 and spans[0] < spans[1] < spans[2] <= 2048, spans
+    # a row narrower than two ends' rows is the whole row's eigenbasis, bit for bit
+    model = kf.ARFieldModel([0.9, 0.9], [2, 2])
+    _, z = noisy(model, (8, 300), 1.0, 2)
+    narrow = kf.ScalarRowFilter(model, 1.0, 300)
+    assert narrow.ends_span is None
+    np.testing.assert_array_equal(
+        narrow.filter(z), kf.ScalarRowFilter(model, 1.0, 300, modes="exact").filter(z)
+    )
+
+
 def textbook_rts(z, model, noise_var, weights):
     """The quasi-optimal filter and its RTS pass with dense solves and the explicit product
     Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) (module doc of reference.row_filters, part 3)."""

@@ -84,9 +84,10 @@ class ScalarRowFilter:
         noise_var: float,
         width: int,
         ar_order: int | None = None,
-        toeplitz: bool = False,
+        modes: str = "ends",
     ) -> None: ...
     def bandwidth(self) -> int: ...
+    def ends_span(self) -> int | None: ...
     def filter_into(
         self,
         z: npt.NDArray[np.float64],

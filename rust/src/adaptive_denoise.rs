@@ -12,6 +12,7 @@
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
+use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::ScalarRowFilter;
 use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
@@ -84,7 +85,7 @@ fn frame(
         *r = (x - mu) / signal.sqrt();
     }
     let nominal = 1.0 / sample_median(&weights);
-    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, true)?;
+    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?;
     filter.filter_image(&residual, Some(&weights), &mut var, height, settings.smooth)?;
     for ((x, w), detail) in out.iter_mut().zip(&weights).zip(&var) {
         *x += (w * noise_var).sqrt() * detail;

@@ -11,6 +11,7 @@ use crate::field_model::FieldModel;
 use crate::lag_products::lag_products as lag_kernel;
 use crate::noise::{Noise, Real};
 use crate::product_field::product_field_into;
+use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::ScalarRowFilter;
 use crate::stationary_start::AxisRecursion;
 use crate::vector_row_filter::VectorRowFilter;
@@ -453,18 +454,33 @@ pub struct PyScalarRowFilter {
 #[pymethods]
 impl PyScalarRowFilter {
     #[new]
-    #[pyo3(signature = (model, noise_var, width, ar_order=None, toeplitz=false))]
+    #[pyo3(signature = (model, noise_var, width, ar_order=None, modes="ends"))]
     fn new(
         py: Python<'_>,
         model: &PyFieldModel,
         noise_var: f64,
         width: usize,
         ar_order: Option<usize>,
-        toeplitz: bool,
+        modes: &str,
     ) -> PyResult<Self> {
+        let set = match modes {
+            "exact" => ModeSet::Exact,
+            "ends" => ModeSet::Ends,
+            "toeplitz" => ModeSet::Toeplitz,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "modes must be 'ends', 'exact' or 'toeplitz', got {modes:?}"
+                )))
+            }
+        };
         let inner =
-            py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, toeplitz))?;
+            py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, set))?;
         Ok(Self { inner })
+    }
+
+    /// W' of the exact ends of the "ends" modes (None: no splice).
+    fn ends_span(&self) -> Option<usize> {
+        self.inner.ends_span()
     }
 
     /// Half-bandwidth of the row systems.

@@ -18,19 +18,21 @@
 //! the exact stationary prior. The RTS pass over the rows uses P_k ≈ A_k⁻¹,
 //! P_e,k+1⁻¹ ≈ Λ_{k+1}; the product by Λ_{k+1} comes from what the passes already solved
 //! (`smooth_row`), so the pass costs one solve per row.
-//! The band of P_e comes from the modes of `row_modes` (exact eigenbasis, or the Toeplitz
-//! modes of the infinite row: no O(W³) step).
+//! The band of P_e comes from the modes of `row_modes`: the exact eigenbasis of the row, the
+//! Fourier modes of the infinite row (no O(W³) step), or both spliced (exact ends of a
+//! W'-point row, Fourier interior; W' chosen here by `ends_modes`).
 //! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted
 //! variant refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row (the model Λ_k stays the one fitted
 //! for the nominal noise variance).
 
+use crate::axis_model::AxisModel;
 use crate::band_ldl::{BandLdlBatch, LANES};
 use crate::banded::{fused_available, BandCholesky, SymmetricBand};
 use crate::buffer_pool::BufferPool;
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
-use crate::row_modes::RowModes;
+use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
 use crate::vector_row_filter::{all_finite, check_sizes, ModeCovariance, RowDynamics, Small};
 use faer::Mat;
 use nalgebra::DMatrix;
@@ -51,6 +53,12 @@ struct Job<'a> {
 
 /// Relative change of the band below which the row model is frozen.
 const SETTLE_TOLERANCE: f64 = 1e-3;
+/// How far above the estimated rounding floor of the band a splice defect may lie: the
+/// exact band sums W' modes against the second quadrature's few hundred, and its scatter was
+/// measured at 3–7× the estimate (n_y = 4, ρ = 0.95), with the splice itself converged.
+const FLOOR_FACTOR: f64 = 8.0;
+/// Most rows the splice check walks (the Riccati settles within a few hundred).
+const MAX_SETTLE_ROWS: usize = 100_000;
 /// Largest entry difference, relative to the largest entry, within which a column's term of
 /// Λ is replaced by the middle column's (see `ScalarRowFilter::precision`): above the
 /// rounding scatter of the interior columns' fits (~1e-10 for n_y = 3; ~5e-8 for n_y = 4 at
@@ -95,14 +103,14 @@ impl Plan {
 }
 
 impl ScalarRowFilter {
-    /// The filter of a 2-axis `model`; `ar_order` = m (None: n_x, at least 2); `toeplitz`: the band
-    /// of P_e from the Toeplitz modes of the infinite row instead of the exact eigenbasis.
+    /// The filter of a 2-axis `model`; `ar_order` = m (None: n_x, at least 2); `modes`: where
+    /// the band of P_e comes from (`row_modes`; `Ends` picks its W' here, `ends_modes`).
     pub fn new(
         model: &FieldModel,
         noise_var: f64,
         width: usize,
         ar_order: Option<usize>,
-        toeplitz: bool,
+        modes: ModeSet,
     ) -> Result<Self> {
         let (y, x) = crate::vector_row_filter::row_axes(model)?;
         crate::error::check_noise_var(noise_var)?;
@@ -140,16 +148,15 @@ impl ScalarRowFilter {
             companion[(i, i - 1)] = 1.0;
         }
         let transition = whitening * companion * lower;
-        let modes = if toeplitz {
-            RowModes::toeplitz(x, width)
-        } else {
-            RowModes::exact(x, width)?
+        let chosen = match modes {
+            ModeSet::Exact => RowModes::exact(x, width)?,
+            // provisional: the Fourier modes carry the width until `ends_modes` has chosen
+            ModeSet::Ends | ModeSet::Toeplitz => RowModes::toeplitz(x, width),
         };
-        let signal = model.sigma() * model.sigma();
-        Ok(Self {
+        let mut filter = Self {
             dynamics: RowDynamics::new(y),
-            mode_var: modes.values().iter().map(|l| signal * l).collect(),
-            modes,
+            mode_var: Vec::new(),
+            modes: chosen,
             ar_order,
             noise_var,
             lower,
@@ -157,7 +164,103 @@ impl ScalarRowFilter {
             transition,
             plan: Mutex::new(None),
             stores: BufferPool::default(),
+        };
+        if modes == ModeSet::Ends {
+            filter.modes = filter.ends_modes(x, model.sigma())?;
+        }
+        filter.mode_var = variances(filter.modes.values(), model.sigma());
+        Ok(filter)
+    }
+
+    /// The `Ends` modes for rows of the `x` axis: W' from `RowModes::first_span`, doubled until
+    /// the splice holds on every row of the plan (`splice_holds`); the whole row's eigenbasis
+    /// when W' would exceed half the row.
+    fn ends_modes(&self, x: &AxisModel, sigma: f64) -> Result<RowModes> {
+        let width = self.width();
+        let mut span = RowModes::first_span(x, width);
+        while let Some(w_ends) = span {
+            let modes = RowModes::ends(x, width, w_ends)?;
+            if self.splice_holds(&modes, x, sigma) {
+                return Ok(modes);
+            }
+            span = Some(2 * w_ends).filter(|s| 2 * s <= width);
+        }
+        RowModes::exact(x, width)
+    }
+
+    /// Whether the splice of `modes` is invisible on the rows whose band a plan uses (row 1,
+    /// the start's prior, and rows n + 1, …, until the per-mode covariances settle, 10×
+    /// tighter than the plan's band: the walk outlasts the plan's): its defect
+    /// (`RowModes::splice_defect`) within [`SPLICE_TOLERANCE`] plus [`FLOOR_FACTOR`] times the
+    /// rounding floor of the per-mode covariances, estimated by a second quadrature of the
+    /// Fourier band (n_y = 4 at ρ ≥ 0.9: ~1e-11 and growing with the row, from the Riccati
+    /// of a state whose rows correlate to 1 − 1e-9; the exact band has the same floor).
+    /// Measured in the state's own basis, not the whitened one: the splice is a property of
+    /// the row's modes, and whitening (condition up to ~5e9 for n_y = 4) adds a scatter of
+    /// ~1e-8 to either band.
+    fn splice_holds(&self, modes: &RowModes, x: &AxisModel, sigma: f64) -> bool {
+        let (n, m) = (self.dynamics.order, self.ar_order);
+        let finer = Fourier::finer(x);
+        let (var, finer_var) = (
+            variances(modes.values(), sigma),
+            variances(finer.values(), sigma),
+        );
+        let rows = self
+            .prediction_errors(&var)
+            .zip(self.prediction_errors(&finer_var));
+        let mut previous: Option<Vec<Small>> = None;
+        for ((t, modal), (_, finer_modal)) in rows.take(MAX_SETTLE_ROWS) {
+            if t > 1 && t <= n {
+                continue;
+            }
+            let Some((defect, floor)) = modes.splice_defect(&modal, &finer, &finer_modal, n, m)
+            else {
+                return true;
+            };
+            if defect > SPLICE_TOLERANCE + FLOOR_FACTOR * floor {
+                return false;
+            }
+            let settled = previous.as_ref().is_some_and(|old| {
+                let scale = modal.iter().fold(0.0f64, |s, c| s.max(c.amax()));
+                let change = modal
+                    .iter()
+                    .zip(old)
+                    .fold(0.0f64, |s, (a, b)| s.max((a - b).amax()));
+                change <= 0.1 * SETTLE_TOLERANCE * scale
+            });
+            if settled {
+                break;
+            }
+            if t > n {
+                previous = Some(modal);
+            }
+        }
+        true
+    }
+
+    /// (t, P_e,t per mode) of the optimal filter's modal Riccati for the mode variances `var`
+    /// (SPEC §2.2 [P 3.29, 3.30]), rows t = 1, 2, ….
+    fn prediction_errors<'a>(
+        &'a self,
+        var: &'a [f64],
+    ) -> impl Iterator<Item = (usize, Vec<Small>)> + 'a {
+        let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
+        let mut current: Vec<ModeCovariance> = Vec::new();
+        (1..).map(move |t| {
+            current = (0..var.len())
+                .map(|j| {
+                    let prev = current.get(j).map_or(Small::zeros(), |c| c.filtered);
+                    self.dynamics.riccati_step(t, &prev, ratios[j])
+                })
+                .collect();
+            let modal = current.iter().zip(var).map(|(c, v)| c.predicted * *v);
+            (t, modal.collect())
         })
+    }
+
+    /// W' of the `Ends` modes' exact ends (None: the band has no splice).
+    pub fn ends_span(&self) -> Option<usize> {
+        self.modes.span()
     }
 
     /// Row width W.
@@ -212,8 +315,13 @@ impl ScalarRowFilter {
     fn precision(&self, band: &[Mat<f64>]) -> Result<SymmetricBand> {
         let (w, n, m) = (self.width(), self.dynamics.order, self.ar_order);
         let mut out = SymmetricBand::zeros(w * n, self.bandwidth());
-        let mut by_past: Vec<Option<DMatrix<f64>>> = vec![None; m + 1];
-        let central = if self.modes.is_toeplitz() || w / 2 < m {
+        // columns with a full past that reaches a Toeplitz row (`Ends`: also those whose past
+        // straddles the splice) take the Toeplitz fit, the middle column's term: a fit mixing
+        // the two sources, which differ by their rounding (~1e-9 for n_y = 4), can be
+        // indefinite
+        let toeplitz = self.modes.toeplitz_columns();
+        let steady = |ell: usize| ell >= m.max(toeplitz.start) && ell < toeplitz.end + m;
+        let central = if w / 2 < m {
             None
         } else {
             Some(self.column_contribution(band, w / 2)?)
@@ -221,18 +329,13 @@ impl ScalarRowFilter {
         for ell in 0..w {
             let k = ell.min(m);
             let computed;
-            let q = match (&by_past[k], &central) {
-                (Some(q), _) => q,
-                (None, central) => {
+            let q = match &central {
+                Some(c) if steady(ell) => c,
+                _ => {
                     computed = self.column_contribution(band, ell)?;
-                    match central {
+                    match &central {
                         Some(c) if k == m && is_settled(&computed, c) => c,
-                        _ => {
-                            if self.modes.is_toeplitz() {
-                                by_past[k] = Some(computed.clone());
-                            }
-                            &computed
-                        }
+                        _ => &computed,
                     }
                 }
             };
@@ -310,12 +413,12 @@ impl ScalarRowFilter {
         }
     }
 
-    fn whitened(&self, modal: &[ModeCovariance], var: &[f64]) -> Vec<Small> {
+    /// The per-mode covariances in the whitened row basis (T P Tᵀ, symmetrised).
+    fn whitened(&self, modal: &[Small]) -> Vec<Small> {
         modal
             .iter()
-            .zip(var)
-            .map(|(c, v)| {
-                let m = self.whitening * (c.predicted * *v) * self.whitening.transpose();
+            .map(|p| {
+                let m = self.whitening * p * self.whitening.transpose();
                 (m + m.transpose()) * 0.5
             })
             .collect()
@@ -323,8 +426,6 @@ impl ScalarRowFilter {
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
         let n = self.dynamics.order;
-        let var = &self.mode_var;
-        let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
         let mut plan = Plan {
             rows: 0,
             settled: false,
@@ -333,18 +434,11 @@ impl ScalarRowFilter {
             row_precision: Vec::new(),
             row_factor: Vec::new(),
         };
-        let mut current: Vec<ModeCovariance> = Vec::new();
         let mut previous_band: Option<Vec<Mat<f64>>> = None;
-        for t in 1..=height {
-            current = (0..var.len())
-                .map(|j| {
-                    let prev = current.get(j).map_or(Small::zeros(), |c| c.filtered);
-                    self.dynamics.riccati_step(t, &prev, ratios[j])
-                })
-                .collect();
+        for (t, modal) in self.prediction_errors(&self.mode_var).take(height) {
             if t <= n {
                 if t == 1 {
-                    let band = self.band(&self.whitened(&current, var));
+                    let band = self.band(&self.whitened(&modal));
                     plan.precisions.push(self.precision(&band)?);
                 }
                 let observed: Vec<usize> = (1..=t).map(|i| n - i).collect();
@@ -353,7 +447,7 @@ impl ScalarRowFilter {
                 plan.row_precision.push(0);
                 plan.row_factor.push(plan.factors.len() - 1);
             } else {
-                let band = self.band(&self.whitened(&current, var));
+                let band = self.band(&self.whitened(&modal));
                 let settled = previous_band.as_ref().is_some_and(|old| {
                     let scale = max_abs_difference(&band[0], None);
                     old.iter()
@@ -767,6 +861,11 @@ impl<'a> WeightedRows<'a> {
     }
 }
 
+/// σ² λ_j of every mode.
+fn variances(values: &[f64], sigma: f64) -> Vec<f64> {
+    values.iter().map(|l| sigma * sigma * l).collect()
+}
+
 /// max |a − b| over the entries (max |a| without b).
 fn max_abs_difference(a: &Mat<f64>, b: Option<&Mat<f64>>) -> f64 {
     let mut most = 0.0f64;
@@ -799,7 +898,7 @@ mod tests {
     fn a_non_finite_pixel_in_any_row_is_an_error() {
         let model = FieldModel::new(&[0.9, 0.8], &[2, 2], 1.0).unwrap();
         let (h, w) = (12usize, 16usize);
-        let filter = ScalarRowFilter::new(&model, 0.5, w, None, false).unwrap();
+        let filter = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();
         let z: Vec<f64> = (0..h * w).map(|i| (i as f64 * 0.3).sin()).collect();
         let mut out = vec![0.0; h * w];
         filter.filter_image(&z, None, &mut out, h, true).unwrap();
@@ -843,7 +942,7 @@ mod tests {
         // own, beyond the snapping tolerances, see `steady_band`)
         for (order, width) in [(3usize, 512usize), (4, 1024)] {
             let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
-            let filter = ScalarRowFilter::new(&model, 1.0, width, None, false).unwrap();
+            let filter = ScalarRowFilter::new(&model, 1.0, width, None, ModeSet::Exact).unwrap();
             let plan = filter.plan(64).unwrap();
             let (first, last) = (plan.precision(1), plan.precision(64));
             for precision in [first, last] {
@@ -864,11 +963,11 @@ mod tests {
                 .map(|i| (i as f64 * 0.37 + phase).sin())
                 .collect()
         };
-        let reused = ScalarRowFilter::new(&model, 0.5, w, None, false).unwrap();
+        let reused = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();
         // a taller image first: the store handed to the second call is longer than it needs
         for (h, phase) in [(30usize, 0.0), (17, 1.0), (40, 2.0)] {
             let z = image(h, phase);
-            let fresh = ScalarRowFilter::new(&model, 0.5, w, None, false).unwrap();
+            let fresh = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();
             let (mut a, mut b) = (vec![0.0; h * w], vec![0.0; h * w]);
             reused.filter_image(&z, None, &mut a, h, true).unwrap();
             fresh.filter_image(&z, None, &mut b, h, true).unwrap();

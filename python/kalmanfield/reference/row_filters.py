@@ -81,7 +81,9 @@ observed (H = (I 0 … 0)).
        h_j = row n−j of L,
        x̂_t = (L ŷ_t)_{n−t}.
    Precomputation, once per (model, s, W, H):
-     * eigendecomposition of T_x: O(W³) (symmetric Toeplitz);
+     * eigendecomposition of T_x: O(W³) (symmetric Toeplitz); modes="ends": of a row of
+       W' < W points only, its band giving the first and last W'/2 columns and the Fourier
+       modes' (``toeplitz_band``) the columns in between (``ends_band``), O(W'³);
      * modal Riccati (``modal_riccati``): P_e,k per mode, O(W n³) per row;
      * band blocks C_d(ℓ) = Cov(v_ℓ, v_{ℓ+d}) = Σ_j U_x[ℓ,j] U_x[ℓ+d,j] T P_e,k,j Tᵀ, d = 0..m:
        O(W² n² m) per row (``prediction_band``);
@@ -155,6 +157,28 @@ def toeplitz_modes(rho_x: float, n_x: int, sigma: float) -> tuple[np.ndarray, np
     return sigma**2 * raw / (raw @ weights), weights
 
 
+def ends_modes(rho_x: float, n_x: int, sigma: float, span: int):
+    """Twin of ``RowModes::ends``: the eigenbasis of a row of `span` points, then the Fourier
+    modes.  Returns (λ: the span row's, then the nodes'; (U_span, trapezoid weights))."""
+    lam, u = row_modes(rho_x, n_x, sigma, span)
+    lam_g, weights = toeplitz_modes(rho_x, n_x, sigma)
+    return np.concatenate([lam, lam_g]), (u, weights)
+
+
+def ends_band(modes: tuple, modal_cov: np.ndarray, m: int, width: int) -> list:
+    """Twin of ``RowModes::band`` for the "ends" modes: rows ℓ < W'/2 from the left half of the
+    W'-row's exact band, rows ℓ ≥ W − W'/2 from its right half, the Toeplitz band between."""
+    u, weights = modes
+    span = u.shape[0]
+    exact = prediction_band(u, modal_cov[:span], m)
+    band = toeplitz_band(weights, modal_cov[span:], m, width)
+    half = span // 2
+    for d, lag in enumerate(band):
+        lag[:half] = exact[d][:half]
+        lag[width - half : width - d] = exact[d][span - half : span - d]
+    return band
+
+
 def toeplitz_band(weights: np.ndarray, modal_cov: np.ndarray, m: int, width: int) -> list:
     """``prediction_band`` for the Toeplitz modes: block d = (1/π)∫ cos(dω) P(ω) dω by the
     trapezoid rule, the same for every ℓ (shape (W−d, n, n))."""
@@ -199,14 +223,17 @@ def wiener_bound(rho, order, sigma, noise_var, shape) -> float:
 # 2. optimal vector row filter (modal form of SPEC §2.1–2.2)
 
 
-def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact"):
+def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact", span=None):
     """Riccati recursion of the optimal row filter (SPEC §2.2 [P 3.29, 3.30]), one n×n filter per
     eigen-mode λ_j of T_x.  Returns (λ, U_x, steps); steps[t] = dict(pe, pf, gain) with arrays of
     shape (W, n, n), (W, n, n), (W, n): prediction / filtered covariances and Kalman gains.
-    modes="toeplitz": the Fourier modes of ``toeplitz_modes`` (U_x is then their weights)."""
+    modes="toeplitz": the Fourier modes of ``toeplitz_modes`` (U_x is then their weights);
+    modes="ends": those of ``ends_modes`` on a `span`-point row (U_x: (U_span, weights))."""
     n = order[0]
     if modes == "toeplitz":
         lam, u = toeplitz_modes(rho[1], order[1], sigma)
+    elif modes == "ends":
+        lam, u = ends_modes(rho[1], order[1], sigma, span)
     else:
         lam, u = row_modes(rho[1], order[1], sigma, width)
     a = companion(rho[0], n)
@@ -351,19 +378,27 @@ def column_model(band: list[np.ndarray], ell: int, m: int) -> tuple[np.ndarray, 
     return gam, 0.5 * (dcov + dcov.T)
 
 
-def markov_precision(band: list[np.ndarray], m: int) -> sparse.csr_matrix:
+def markov_precision(
+    band: list[np.ndarray], m: int, toeplitz_rows: range = range(0)
+) -> sparse.csr_matrix:
     """Precision Λ = Lᵀ D⁻¹ L = Σ_ℓ B_ℓᵀ D_ℓ⁻¹ B_ℓ of the block AR(m) model along the row
     fitted to the band (``column_model``); a column with a full past whose term lies within
     INTERIOR_TOLERANCE of the middle column's takes the middle one's (twin of
-    ``ScalarRowFilter::precision``: an exactly periodic interior).  Interleaved ordering
-    (ℓ, i) ↦ ℓ·n + i."""
+    ``ScalarRowFilter::precision``: an exactly periodic interior).  `toeplitz_rows`: the rows
+    holding the Toeplitz blocks (modes "ends"); a column with a full past that reaches one
+    takes the middle column's term without a fit of its own (a fit straddling the splice
+    mixes two sources and can be indefinite).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
     width, n = band[0].shape[0], band[0].shape[1]
     middle = width // 2
     central = contribution(*column_model(band, middle, m), n) if middle >= m else None
+    steady = range(max(m, toeplitz_rows.start), toeplitz_rows.stop + m) if toeplitz_rows else ()
     rows, cols, vals = [], [], []
     for ell in range(width):
         past = list(range(ell - 1, max(ell - m, 0) - 1, -1))
-        q = contribution(*column_model(band, ell, m), n)
+        if central is not None and ell in steady:
+            q = central
+        else:
+            q = contribution(*column_model(band, ell, m), n)
         if central is not None and len(past) == m and is_settled(q, central):
             q = central
         index = np.concatenate([np.arange(c * n, (c + 1) * n) for c in [ell] + past])
@@ -424,6 +459,7 @@ def scalar_filter_plan(
     tol=1e-3,
     transient=True,
     modes="exact",
+    span=None,
 ):
     """Precomputed per-row quantities of the quasi-optimal filter (module doc, part 3), in the
     whitened row basis of ``row_basis``: list over rows t of dict(prec=Λ_t (sparse),
@@ -431,16 +467,28 @@ def scalar_filter_plan(
     transient=True: Λ_t is refitted to the band of the optimal P_e,t until that band settles
     (relative change < tol).  transient=False: one model, fitted to the steady-state P_e,∞,
     serves every row after the (exact) start.  ar_order None → max(n_x, 2).  modes="toeplitz":
-    the band from the Fourier modes of the infinite row (``toeplitz_band``)."""
+    the band from the Fourier modes of the infinite row (``toeplitz_band``); modes="ends":
+    spliced with the exact band of a `span`-point row at both ends (``ends_band``; the Rust
+    filter's ``ends_span``)."""
     n, m = order[0], (max(order[1], 2) if ar_order is None else ar_order)
     bw = n * (m + 1) - 1
     tmat, lower = row_basis(rho[0], n)
-    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height, modes)
+    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height, modes, span)
+    toeplitz_rows = {
+        "exact": range(0),
+        "toeplitz": range(width),
+        "ends": range((span or 0) // 2, width - (span or 0) // 2),
+    }[modes]
 
     def prediction_band_of(pe):
         if modes == "toeplitz":
             return toeplitz_band(u, pe, m, width)
+        if modes == "ends":
+            return ends_band(u, pe, m, width)
         return prediction_band(u, pe, m)
+
+    def precision_of(band):
+        return markov_precision(band, m, toeplitz_rows)
 
     if not transient:
         pe_inf = steady_prediction(rho, order, sigma, noise_var, width)
@@ -452,7 +500,7 @@ def scalar_filter_plan(
         pe = 0.5 * (pe + pe.transpose(0, 2, 1))  # exactly symmetric: T is ill-conditioned
         if not predict:  # static start: exact stationary prior, accumulated observations
             if t == 0:
-                prec = markov_precision(prediction_band_of(pe), m)  # exact if m ≥ n_x
+                prec = precision_of(prediction_band_of(pe))  # exact if m ≥ n_x
                 obs = prec
             obs = obs + observation_block(lower, i, width, noise_var)
             plan.append(
@@ -473,7 +521,7 @@ def scalar_filter_plan(
             np.max(np.abs(b - c)) <= tol * np.max(np.abs(band[0])) for b, c in zip(band, prev_band)
         )
         if not frozen:
-            prec = markov_precision(band, m)
+            prec = precision_of(band)
             chol = banded_cholesky(prec + observation_block(lower, 0, width, noise_var), bw)
             prev_band = band
         plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
