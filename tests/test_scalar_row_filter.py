@@ -218,6 +218,17 @@ def test_exact_mse_matches_monte_carlo():
     assert abs(err.mean() - exact) < 4 * err.std(ddof=1) / np.sqrt(err.size)
 
 
+@pytest.mark.parametrize(
+    "order,ar_order", [((1, 1), None), ((2, 2), None), ((3, 4), None), ((2, 1), 3)]
+)
+def test_ar_order_is_the_one_the_kernel_uses(order, ar_order):
+    filt = kf.ScalarRowFilter(kf.ARFieldModel([0.8, 0.7], list(order)), 1.0, 16, ar_order)
+    want = ar_order if ar_order is not None else max(order[1], 2)
+    assert filt.ar_order == want
+    # the kernel's half-bandwidth n_y (m + 1) − 1 follows from the m it fitted
+    assert filt._core.bandwidth() == order[0] * (filt.ar_order + 1) - 1
+
+
 def test_stack_pickle_and_mean():
     model = kf.ARFieldModel([0.9, 0.8], [2, 1], sigma=3.0)
     stack = np.stack([noisy(model, (30, 20), 2.0, s)[1] + 50 for s in range(4)])
