@@ -5,7 +5,7 @@ import pickle
 import numpy as np
 import pytest
 from conftest import noisy
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import kalmanfield as kf
@@ -91,6 +91,24 @@ def test_spliced_ends_equal_the_whole_rows_eigenbasis(order, rho, noise_var):
     )
     twin = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var, smooth=True, plan=plan)
     np.testing.assert_allclose(got, twin, atol=1e-10 * scale, rtol=0)
+
+
+@settings(max_examples=8, deadline=None)
+@given(
+    st.integers(1, 3),
+    st.integers(1, 3),
+    st.floats(0.3, 0.8),
+    st.floats(0.3, 0.95),
+    st.integers(512, 700),
+    st.floats(0.1, 10.0),
+)
+def test_spliced_ends_equal_the_whole_row_for_any_model(n_y, n_x, rho_x, rho_y, width, noise_var):
+    model = kf.ARFieldModel([rho_y, rho_x], [n_y, n_x])
+    _, z = noisy(model, (6, width), noise_var, 7)
+    ends = kf.ScalarRowFilter(model, noise_var, width, smooth=True)
+    exact = kf.ScalarRowFilter(model, noise_var, width, smooth=True, modes="exact")
+    # the whitened row basis of n_y = 3 has condition ~1e6 at ρ_y near 1
+    np.testing.assert_allclose(ends.filter(z), exact.filter(z), atol=1e-9 * np.abs(z).max(), rtol=0)
 
 
 def test_spliced_ends_grow_with_the_correlation_and_leave_narrow_rows_whole():

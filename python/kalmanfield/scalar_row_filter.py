@@ -46,7 +46,8 @@ class ScalarRowFilter(RowFilter):
         terms that decay with the distance). W' (:attr:`ends_span`) is the smallest power
         of two ≥ 256 whose band 3W'/8 from its ends agrees with the infinite row's within
         1e-11 (relative) plus 8× their rounding floor on every row of the plan; rows
-        narrower than 2W' use the whole row's eigenbasis, bit for bit as "exact". O(W'³)
+        narrower than 2W' use the whole row's eigenbasis, bit for bit as "exact", and so do
+        the few (4,4) models at ρ ≥ 0.95 whose band noise hides the splice. O(W'³)
         once: 0.01–0.3 s at any width (W' = 256–1024 for ρ_x ≤ 0.95). Outputs agree with
         "exact" to ≤ 1e-10 (n_y ≤ 2) and ~5e-10 (n_y = 3); for n_y = 4 at ρ ≥ 0.9 the band
         itself is only computable to ~1e-9 and the outputs differ by up to ~2e-4 (the README

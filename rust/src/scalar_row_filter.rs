@@ -193,7 +193,7 @@ impl ScalarRowFilter {
     /// tighter than the plan's band: the walk outlasts the plan's): its defect
     /// (`RowModes::splice_defect`) within [`SPLICE_TOLERANCE`] plus [`FLOOR_FACTOR`] times the
     /// rounding floor of the per-mode covariances, estimated by a second quadrature of the
-    /// Fourier band (n_y = 4 at ρ ≥ 0.9: ~1e-11 and growing with the row, from the Riccati
+    /// Fourier band (the largest estimate over the rows so far) (n_y = 4 at ρ ≥ 0.9: ~1e-11 and growing with the row, from the Riccati
     /// of a state whose rows correlate to 1 − 1e-9; the exact band has the same floor).
     /// Measured in the state's own basis, not the whitened one: the splice is a property of
     /// the row's modes, and whitening (condition up to ~5e9 for n_y = 4) adds a scatter of
@@ -209,14 +209,18 @@ impl ScalarRowFilter {
             .prediction_errors(&var)
             .zip(self.prediction_errors(&finer_var));
         let mut previous: Option<Vec<Small>> = None;
+        // the largest floor estimate so far: the rounding accumulates down the rows, and one
+        // row's estimate (a difference of two noisy bands) dips at random
+        let mut floor = 0.0f64;
         for ((t, modal), (_, finer_modal)) in rows.take(MAX_SETTLE_ROWS) {
             if t > 1 && t <= n {
                 continue;
             }
-            let Some((defect, floor)) = modes.splice_defect(&modal, &finer, &finer_modal, n, m)
+            let Some((defect, row_floor)) = modes.splice_defect(&modal, &finer, &finer_modal, n, m)
             else {
                 return true;
             };
+            floor = floor.max(row_floor);
             if defect > SPLICE_TOLERANCE + FLOOR_FACTOR * floor {
                 return false;
             }
@@ -952,6 +956,24 @@ mod tests {
             assert!(periodic_defect(last, order, 0..20) > 1e-6);
             assert_eq!(plan.factor(64).steady_plan().is_some(), order == 3);
         }
+    }
+
+    #[test]
+    fn the_splice_check_refuses_ends_too_short_for_the_edge_effects() {
+        // (2,2) at ρ = 0.95: the edge effects of P_e reach ~200 columns, so the ends of a
+        // 256-point row (spliced 96 columns from its end) are refused; the first W' from the
+        // correlation's reach holds and is taken; a row narrower than 2W' stays whole
+        let model = FieldModel::new(&[0.95, 0.95], &[2, 2], 1.0).unwrap();
+        let x = &model.axes()[1];
+        let width = 4096;
+        let filter = ScalarRowFilter::new(&model, 1.0, width, None, ModeSet::Ends).unwrap();
+        let first = RowModes::first_span(x, width).unwrap();
+        assert_eq!(filter.ends_span(), Some(first));
+        let ends = |span| RowModes::ends(x, width, span).unwrap();
+        assert!(filter.splice_holds(&ends(first), x, 1.0));
+        assert!(!filter.splice_holds(&ends(256), x, 1.0));
+        let narrow = ScalarRowFilter::new(&model, 1.0, 2 * first - 1, None, ModeSet::Ends);
+        assert_eq!(narrow.unwrap().ends_span(), None);
     }
 
     #[test]
