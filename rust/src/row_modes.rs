@@ -17,9 +17,10 @@
 //!   terms that decay with the distance (measured: faster than R_x itself), so the first
 //!   and last W'/2 columns take the band of the exact eigenbasis of a row of W' < W points
 //!   (its left and right halves) and the columns in between the Toeplitz band. The
-//!   scalar filter picks W' so that the W'-row's middle quarter is within
-//!   [`SPLICE_TOLERANCE`] of the Toeplitz band on every row of its plan; O(W'³) once
-//!   instead of O(W³), the exact band to that tolerance.
+//!   scalar filter picks W' so that the W'-row's band 3W'/8 from its end is within
+//!   [`SPLICE_TOLERANCE`] (plus a multiple of the bands' rounding floor) of the Toeplitz
+//!   band on every row of its plan (`ScalarRowFilter::splice_holds`); O(W'³) once instead
+//!   of O(W³), the exact band to that tolerance.
 
 use crate::axis_model::AxisModel;
 use crate::axis_modes::AxisModes;
@@ -33,8 +34,9 @@ use std::ops::Range;
 const MIN_INTERVALS: usize = 256;
 const MAX_INTERVALS: usize = 1 << 16;
 /// Largest entry difference, relative to the Toeplitz band's largest entry, allowed between
-/// the exact band in the middle quarter of the ends' row and the Toeplitz band (about the
-/// exact band's own rounding at W' = 1024–2048, which sums over W' modes).
+/// the exact band 3W'/8 from the end of the ends' row and the Toeplitz band, above the
+/// bands' rounding floor (about the exact band's own rounding at W' = 1024–2048, which sums
+/// over W' modes).
 pub const SPLICE_TOLERANCE: f64 = 1e-11;
 /// Smallest row of the exact ends, W'.
 const MIN_SPAN: usize = 256;
@@ -167,8 +169,8 @@ impl RowModes {
 
     /// The first W' to try for the ends of `axis` rows of `width` points (None: the row is
     /// too short to split, use the whole row): the smallest power of two ≥ [`MIN_SPAN`]
-    /// whose middle quarter lies where |R_x| < 1e-4 of both ends (the splice's defect has
-    /// been found far below R_x at the same distance; `ScalarRowFilter` checks it).
+    /// with |R_x| < 1e-4 beyond 3W'/8 (the splice's defect has been found far below R_x at
+    /// the same distance; `ScalarRowFilter` checks it there).
     pub fn first_span(axis: &AxisModel, width: usize) -> Option<usize> {
         let reach = (0..width)
             .rev()
@@ -176,11 +178,6 @@ impl RowModes {
             .map_or(0, |d| d + 1);
         let span = (8 * reach).div_ceil(3).next_power_of_two().max(MIN_SPAN);
         (2 * span <= width).then_some(span)
-    }
-
-    /// Whether the band is Toeplitz (the same blocks at every column of the row).
-    pub fn is_toeplitz(&self) -> bool {
-        matches!(self, Self::Toeplitz { .. })
     }
 
     /// W' of the exact ends (None: not spliced).

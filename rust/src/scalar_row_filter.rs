@@ -308,8 +308,9 @@ impl ScalarRowFilter {
     }
 
     /// Λ = Lᵀ D⁻¹ L of the block AR(m) model fitted to the band (interleaved (ℓ, i) ↦ ℓn+i).
-    /// A Toeplitz band gives the same contribution for every column with a full past, so it
-    /// is computed once per past length. With the exact modes, a column with a full past
+    /// Where the band is Toeplitz (`RowModes::toeplitz_columns`), every column with a full
+    /// past gives the same contribution, so it is computed once (the middle column's). Other
+    /// columns: a column with a full past
     /// whose contribution lies within [`INTERIOR_TOLERANCE`] of the middle column's takes
     /// the middle one's: the interior columns' fits differ by rounding only (scattered up
     /// to ~6e-6 for n_y = 4, through the ill-conditioned whitened basis), and an exactly
