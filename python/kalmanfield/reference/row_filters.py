@@ -472,6 +472,8 @@ def scalar_filter_plan(
     filter's ``ends_span``)."""
     n, m = order[0], (max(order[1], 2) if ar_order is None else ar_order)
     bw = n * (m + 1) - 1
+    if modes == "ends" and span is None:
+        raise ValueError("modes=\"ends\" needs the span W' (the Rust filter's ends_span)")
     tmat, lower = row_basis(rho[0], n)
     lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height, modes, span)
     toeplitz_rows = {
