@@ -3,6 +3,7 @@
 
 use crate::error::{FieldError, Result};
 use crate::steady_band::{FactorCoefficients, Steady};
+use crate::steady_blocks::{block_size, SteadyBlocks};
 use std::ops::Range;
 
 /// Runs `body` for r = 0, 1, …, B − 1 (B ≤ [`MAX_UNROLLED_RING`]) written out, not as a
@@ -176,9 +177,13 @@ impl SymmetricBand {
             segmented: None,
             strided: None,
             steady: None,
+            blocks: None,
             fused: fused_available(),
         };
         if steady {
+            factor.blocks = block_size(b).and_then(|g| SteadyBlocks::new(&factor.data, n, b, g));
+        }
+        if steady && factor.blocks.is_none() {
             factor.steady = Steady::new(&factor.coefficients());
             if factor.steady.is_none() {
                 factor.segment(b >= LANE_MAJOR_BANDS);
@@ -244,6 +249,7 @@ pub struct BandCholesky {
     segmented: Option<Segmented>,
     strided: Option<Strided>,
     steady: Option<Steady>,
+    blocks: Option<SteadyBlocks>,
     /// The CPU has FMA and AVX2: the solves run the fused-multiply-add build of the kernels
     /// (one rounding and one latency per step instead of two). Decided once per process, so
     /// that every thread produces the same bits.
@@ -538,6 +544,8 @@ fn decayed(mut h: Vec<f64>, b: usize) -> Vec<f64> {
 thread_local! {
     /// The lane-major copy of x of the segmented solves, kept between calls.
     static SCRATCH: std::cell::Cell<Vec<Lanes>> = const { std::cell::Cell::new(Vec::new()) };
+    /// The padded copy of x of the block solves (see [`SteadyBlocks`]).
+    static BLOCK_SCRATCH: std::cell::Cell<Vec<[f64; 4]>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 impl BandCholesky {
@@ -555,6 +563,18 @@ impl BandCholesky {
     #[cfg(test)]
     pub(crate) fn steady_plan(&self) -> Option<&Steady> {
         self.steady.as_ref()
+    }
+
+    /// The block plan, if the solves use one.
+    #[cfg(test)]
+    pub(crate) fn block_plan(&self) -> Option<&SteadyBlocks> {
+        self.blocks.as_ref()
+    }
+
+    /// Whether the solves use the steady interior (by segments or by blocks).
+    #[cfg(test)]
+    pub(crate) fn is_steady(&self) -> bool {
+        self.steady.is_some() || self.blocks.is_some()
     }
 
     /// The solve without a plan (one substitution at a time), for the tests.
@@ -621,6 +641,9 @@ impl BandCholesky {
     /// chain of a banded solve is its cost); segmented for long orders.
     #[inline(always)]
     fn solve_fixed<A: Arith, const B: usize>(&self, x: &mut [f64]) {
+        if let Some(blocks) = &self.blocks {
+            return self.solve_blocks::<A, B>(x, blocks);
+        }
         if let Some(s) = &self.strided {
             self.substitute_segmented::<A, B, false>(x, &self.forward, &s.forward, s.span);
             self.substitute_segmented::<A, B, true>(x, &self.backward, &s.backward, s.span);
@@ -653,6 +676,35 @@ impl BandCholesky {
         substitute::<A, B, false>(x, slots(&self.forward), inv, 0, n, &mut window);
         let mut window = [0.0; B];
         substitute::<A, B, true>(x, slots(&self.backward), inv, 0, n, &mut window);
+    }
+
+    /// Both substitutions by blocks over the steady interior (see [`SteadyBlocks`]), on a
+    /// padded copy of it, and one position at a time before and after it.
+    #[inline(always)]
+    fn solve_blocks<A: Arith, const B: usize>(&self, x: &mut [f64], blocks: &SteadyBlocks) {
+        let (n, start, end) = (self.size, blocks.start, blocks.end);
+        let inv = |i: usize| self.inverse_diagonal[i];
+        let (forward, backward) = (slots(&self.forward), slots(&self.backward));
+        // taken out of the thread-local (not used in a closure): the kernels must stay
+        // inlined into the caller's target features
+        let mut padded = BLOCK_SCRATCH.take();
+        padded.resize(blocks.padded_len(), [0.0; 4]);
+        let mut window = [0.0; B];
+        substitute::<A, B, false>(x, &forward, inv, 0, start, &mut window);
+        blocks.gather(x, &mut padded, blocks.before().start..blocks.interior().end);
+        blocks.substitute::<A>(&mut padded, false);
+        let last = blocks.interior().end - blocks.reach()..blocks.interior().end;
+        blocks.scatter(&padded, x, last);
+        let mut window: [f64; B] = std::array::from_fn(|j| x[end - B + j]);
+        substitute::<A, B, false>(x, &forward, inv, end, n, &mut window);
+        let mut window = [0.0; B];
+        substitute::<A, B, true>(x, &backward, inv, 0, n - end, &mut window);
+        blocks.gather(x, &mut padded, blocks.after());
+        blocks.substitute::<A>(&mut padded, true);
+        blocks.scatter(&padded, x, blocks.interior());
+        let mut window: [f64; B] = std::array::from_fn(|j| x[start + B - 1 - j]);
+        substitute::<A, B, true>(x, &backward, inv, n - start, n, &mut window);
+        BLOCK_SCRATCH.set(padded);
     }
 
     /// The substitution on the LANES segments at once from zero windows, then the

@@ -1,0 +1,308 @@
+//! Block substitutions over the steady interior of a band Cholesky factor (the row systems
+//! of the quasi-optimal row filter, SPEC §2.3 generalised, once its model has settled).
+//!
+//! Over the interior made exactly periodic by `steady_band::snap_interior`, L is block
+//! Toeplitz with G × G blocks (G a multiple of the period: G = n, the state order, for the
+//! n = 3, 4 filters): the diagonal block C and the sub-diagonal blocks L_k, k = 1..K,
+//! K = ⌈B/G⌉, or one less when the farthest is zero (A block banded, as the row filters'
+//! systems are). Each substitution is then a recursion on G-vectors, one block per step:
+//!
+//!   forward   y_c = C⁻¹ x_c − Σ_k (C⁻¹ L_k) y_{c−k},
+//!   backward  u_c = C⁻ᵀ y_c − Σ_k (C⁻ᵀ L_kᵀ) u_{c+k},
+//!
+//! each product a few vector multiply-adds (one AVX2 vector per block column). Unlike the
+//! segmented solves of `steady_band`, nothing is corrected afterwards: those redo about B
+//! multiply-adds per position to correct the start of each segment, which doubles the work
+//! of the wide bands (B = 11, 19). The price is a latency chain through one block product
+//! per step, so the blocks serve the wide bands only (see [`block_size`]): (2,2) in blocks
+//! of four positions ran at 93 Mpixel/s causal against 140 by segments. Solving two
+//! blocks per step from the blocks before them (halving the chain, one more block product
+//! per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within the noise of
+//! this machine. The (4,4) factors reach their steady interior only through the 1e-8 snap
+//! of `steady_band`. The positions
+//! before and after the block interior are substituted one at a time with the factor's own
+//! coefficients.
+
+use std::ops::Range;
+
+use crate::banded::Arith;
+use crate::steady_band::{longest, periodic_range};
+
+/// One column of a G × G block, or one block of x (entries G.. zero).
+pub(crate) type Column = [f64; 4];
+/// A G × G block by columns (columns G.. zero).
+type Block = [Column; 4];
+
+/// The fewest blocks the interior must span to be solved by blocks.
+const MIN_BLOCKS: usize = 16;
+
+/// The block size of a bandwidth solved by blocks: the wide bands of the n = 3 and n = 4
+/// row filters (B = 11, 19); None for the others, solved faster by segments.
+pub(crate) fn block_size(b: usize) -> Option<usize> {
+    match b {
+        11 => Some(3),
+        19 => Some(4),
+        _ => None,
+    }
+}
+
+/// The plan of a block solve over the positions [start, end) (whole blocks).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SteadyBlocks {
+    /// G.
+    size: usize,
+    pub(crate) start: usize,
+    pub(crate) end: usize,
+    forward: BlockSteps,
+    backward: BlockSteps,
+}
+
+/// One substitution of a [`SteadyBlocks`] solve.
+#[derive(Debug, Clone, PartialEq)]
+struct BlockSteps {
+    /// C⁻¹ (forward) or C⁻ᵀ (backward).
+    scale: Block,
+    /// Per k = 1..=K: C⁻¹ L_k (forward) or C⁻ᵀ L_kᵀ (backward).
+    terms: Vec<Block>,
+}
+
+impl SteadyBlocks {
+    /// The block plan of the snapped factor `l` (order n, bandwidth b, rows of b + 1 entries,
+    /// see `SymmetricBand`) in blocks of g positions, if its exactly periodic interior has a
+    /// period dividing g and spans at least [`MIN_BLOCKS`] blocks clear of the ends.
+    pub(crate) fn new(l: &[f64], n: usize, b: usize, g: usize) -> Option<SteadyBlocks> {
+        let row = |i: usize| &l[i * (b + 1)..(i + 1) * (b + 1)];
+        let (period, (lo, hi)) = longest(|p| periodic_range(n, p, |i, r| row(i) == row(r)));
+        if g % period != 0 {
+            return None;
+        }
+        let reach = b.div_ceil(g);
+        let start = lo.div_ceil(g).max(reach) * g;
+        let end = (hi / g).min((n / g).saturating_sub(reach)) * g;
+        if end < start + MIN_BLOCKS * g {
+            return None;
+        }
+        let entry = |i: usize, k: usize| {
+            if i >= k && i - k <= b {
+                l[i * (b + 1) + k + b - i]
+            } else {
+                0.0
+            }
+        };
+        let block = |k: usize| -> [[f64; 4]; 4] {
+            std::array::from_fn(|p| {
+                std::array::from_fn(|q| {
+                    if p < g && q < g {
+                        entry(start + p, start + q - k * g)
+                    } else {
+                        0.0
+                    }
+                })
+            })
+        };
+        let inverse = lower_inverse(&block(0), g);
+        let mut blocks: Vec<[[f64; 4]; 4]> = (1..=reach).map(block).collect();
+        // the farthest block is zero when A is block banded (the row filters): left out
+        if blocks
+            .last()
+            .is_some_and(|m| m.iter().flatten().all(|&v| v == 0.0))
+        {
+            blocks.pop();
+        }
+        let transpose =
+            |m: &[[f64; 4]; 4]| std::array::from_fn(|p| std::array::from_fn(|q| m[q][p]));
+        let forward = BlockSteps {
+            scale: columns(&inverse),
+            terms: blocks
+                .iter()
+                .map(|lk| columns(&product(&inverse, lk)))
+                .collect(),
+        };
+        let inverse_t = transpose(&inverse);
+        let backward = BlockSteps {
+            scale: columns(&inverse_t),
+            terms: blocks
+                .iter()
+                .map(|lk| columns(&product(&inverse_t, &transpose(lk))))
+                .collect(),
+        };
+        Some(SteadyBlocks {
+            size: g,
+            start,
+            end,
+            forward,
+            backward,
+        })
+    }
+
+    /// Blocks per step of the recursions (K).
+    pub(crate) fn reach(&self) -> usize {
+        self.forward.terms.len()
+    }
+
+    /// The length of the padded copy of x the substitutions run on: the blocks of
+    /// [start − K·G, end + K·G), one vector each.
+    pub(crate) fn padded_len(&self) -> usize {
+        (self.end - self.start) / self.size + 2 * self.reach()
+    }
+
+    /// The positions of x held by the padded blocks `blocks` (see [`Self::padded_len`]).
+    fn positions(&self, blocks: Range<usize>) -> Range<usize> {
+        let first = self.start - self.reach() * self.size;
+        first + blocks.start * self.size..first + blocks.end * self.size
+    }
+
+    /// The padded blocks of the interior.
+    pub(crate) fn interior(&self) -> Range<usize> {
+        self.reach()..self.padded_len() - self.reach()
+    }
+
+    /// The K padded blocks before the interior (the forward recursion's start).
+    pub(crate) fn before(&self) -> Range<usize> {
+        0..self.reach()
+    }
+
+    /// The K padded blocks after the interior (the backward recursion's start).
+    pub(crate) fn after(&self) -> Range<usize> {
+        self.padded_len() - self.reach()..self.padded_len()
+    }
+
+    /// Copies x into the padded blocks `blocks`.
+    #[inline(always)]
+    pub(crate) fn gather(&self, x: &[f64], padded: &mut [Column], blocks: Range<usize>) {
+        let g = self.size;
+        let from = &x[self.positions(blocks.clone())];
+        for (block, v) in padded[blocks].iter_mut().zip(from.chunks_exact(g)) {
+            *block = std::array::from_fn(|p| if p < g { v[p] } else { 0.0 });
+        }
+    }
+
+    /// Copies the padded blocks `blocks` back to x.
+    #[inline(always)]
+    pub(crate) fn scatter(&self, padded: &[Column], x: &mut [f64], blocks: Range<usize>) {
+        let g = self.size;
+        let to = &mut x[self.positions(blocks.clone())];
+        for (block, v) in padded[blocks].iter().zip(to.chunks_exact_mut(g)) {
+            for (p, vp) in v.iter_mut().enumerate() {
+                *vp = block[p];
+            }
+        }
+    }
+
+    /// One substitution over the interior of `padded` (see [`Self::padded_len`]): forward
+    /// from the K blocks before it, or backward from the K blocks after it.
+    #[inline(always)]
+    pub(crate) fn substitute<A: Arith>(&self, padded: &mut [Column], backward: bool) {
+        assert!(padded.len() == self.padded_len());
+        macro_rules! run {
+            ($g:literal, $k:literal) => {
+                if backward {
+                    recursion::<A, $g, $k, true>(&self.backward, padded)
+                } else {
+                    recursion::<A, $g, $k, false>(&self.forward, padded)
+                }
+            };
+        }
+        match (self.size, self.reach()) {
+            (3, 3) => run!(3, 3),
+            (3, 4) => run!(3, 4),
+            (4, 4) => run!(4, 4),
+            (4, 5) => run!(4, 5),
+            _ => unreachable!("blocks of 3 (B = 11) or 4 (B = 19) reach ⌈B/G⌉ or one less"),
+        }
+    }
+}
+
+/// The recursion of one substitution over the padded blocks K.. len − K: block j becomes
+/// scale · block j − Σ_k terms_k · block (j ∓ k), backward when `REV`.
+#[inline(always)]
+fn recursion<A: Arith, const G: usize, const K: usize, const REV: bool>(
+    steps: &BlockSteps,
+    padded: &mut [Column],
+) {
+    let terms: &[Block; K] = steps.terms[..].try_into().unwrap();
+    let len = padded.len();
+    assert!(len >= 2 * K);
+    // the newest block is carried in a register: only its product is on the latency chain
+    if REV {
+        let mut newest = padded[len - K];
+        for j in (K..len - K).rev() {
+            newest = step::<A, G, K, REV>(steps, terms, padded, j, newest);
+        }
+    } else {
+        let mut newest = padded[K - 1];
+        for j in K..len - K {
+            newest = step::<A, G, K, REV>(steps, terms, padded, j, newest);
+        }
+    }
+}
+
+/// Block j of a [`recursion`], `newest` the block before it in the recursion's order (a
+/// function, not a closure: LLVM would not inline a closure into the caller's target
+/// features).
+#[inline(always)]
+fn step<A: Arith, const G: usize, const K: usize, const REV: bool>(
+    steps: &BlockSteps,
+    terms: &[Block; K],
+    padded: &mut [Column],
+    j: usize,
+    newest: Column,
+) -> Column {
+    let mut acc = scaled::<A, G>(&steps.scale, &padded[j]);
+    for k in (2..=K).rev() {
+        let w = if REV { padded[j + k] } else { padded[j - k] };
+        subtract::<A, G>(&mut acc, &terms[k - 1], &w);
+    }
+    subtract::<A, G>(&mut acc, &terms[0], &newest);
+    padded[j] = acc;
+    acc
+}
+
+/// m v (m by columns), lane by lane.
+#[inline(always)]
+fn scaled<A: Arith, const G: usize>(m: &Block, v: &Column) -> Column {
+    let mut acc = [0.0; 4];
+    for (q, &vq) in v.iter().enumerate().take(G) {
+        for (a, &c) in acc.iter_mut().zip(&m[q]) {
+            *a = A::add_product(*a, c, vq);
+        }
+    }
+    acc
+}
+
+/// acc −= m w (m by columns), lane by lane.
+#[inline(always)]
+fn subtract<A: Arith, const G: usize>(acc: &mut Column, m: &Block, w: &Column) {
+    for (q, &wq) in w.iter().enumerate().take(G) {
+        for (a, &c) in acc.iter_mut().zip(&m[q]) {
+            *a = A::sub_product(*a, c, wq);
+        }
+    }
+}
+
+/// The inverse of the lower triangular g × g block `c` (by rows), row by row:
+/// X_i = (e_i − Σ_{k<i} C_ik X_k) / C_ii.
+fn lower_inverse(c: &[[f64; 4]; 4], g: usize) -> [[f64; 4]; 4] {
+    let mut inv = [[0.0; 4]; 4];
+    for i in 0..g {
+        let mut row = [0.0; 4];
+        row[i] = 1.0;
+        for (k, inv_k) in inv.iter().enumerate().take(i) {
+            for (r, v) in row.iter_mut().zip(inv_k) {
+                *r -= c[i][k] * v;
+            }
+        }
+        inv[i] = row.map(|v| v / c[i][i]);
+    }
+    inv
+}
+
+/// a b (by rows).
+fn product(a: &[[f64; 4]; 4], b: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// The columns of m (by rows).
+fn columns(m: &[[f64; 4]; 4]) -> Block {
+    std::array::from_fn(|q| std::array::from_fn(|p| m[p][q]))
+}
