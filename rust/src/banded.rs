@@ -693,8 +693,7 @@ impl BandCholesky {
         substitute::<A, B, false>(x, &forward, inv, 0, start, &mut window);
         blocks.gather(x, &mut padded, blocks.before().start..blocks.interior().end);
         blocks.substitute::<A>(&mut padded, false);
-        let last = blocks.interior().end - blocks.reach()..blocks.interior().end;
-        blocks.scatter(&padded, x, last);
+        blocks.scatter(&padded, x, blocks.last(B));
         let mut window: [f64; B] = std::array::from_fn(|j| x[end - B + j]);
         substitute::<A, B, false>(x, &forward, inv, end, n, &mut window);
         let mut window = [0.0; B];

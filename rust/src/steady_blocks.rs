@@ -157,6 +157,13 @@ impl SteadyBlocks {
         self.reach()..self.padded_len() - self.reach()
     }
 
+    /// The last padded blocks of the interior that hold its last b positions (the window
+    /// of the one-position substitution after it).
+    pub(crate) fn last(&self, b: usize) -> Range<usize> {
+        let interior = self.interior();
+        interior.end - b.div_ceil(self.size)..interior.end
+    }
+
     /// The K padded blocks before the interior (the forward recursion's start).
     pub(crate) fn before(&self) -> Range<usize> {
         0..self.reach()
