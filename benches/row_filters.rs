@@ -36,9 +36,7 @@ fn bench_scalar(c: &mut Criterion) {
         filter
             .filter_image(&z, None, &mut out, side, false)
             .unwrap(); // builds the plan
-                       // the higher multiplicities causal only (their smoothed runs take long to sample)
-        let smooths: &[bool] = if order <= 2 { &[false, true] } else { &[false] };
-        for &smooth in smooths {
+        for smooth in [false, true] {
             let id = format!("({order},{order}) smooth={smooth}");
             group.bench_with_input(BenchmarkId::from_parameter(id), &smooth, |b, &s| {
                 b.iter(|| one_thread(|| filter.filter_image(&z, None, &mut out, side, s).unwrap()))
