@@ -13,9 +13,12 @@
 //! each product a few vector multiply-adds (one AVX2 vector per block column). Unlike the
 //! segmented solves of `steady_band`, nothing is corrected afterwards: those redo about B
 //! multiply-adds per position to correct the start of each segment, which doubles the work
-//! of the wide bands (B = 11, 19). The price is a latency chain through one block product
-//! per step, so the blocks serve the wide bands only (see [`block_size`]): (2,2) in blocks
-//! of four positions ran at 93 Mpixel/s causal against 140 by segments. Solving two
+//! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
+//! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
+//! by segments. The recursion is bound by the throughput of its multiply-adds and loads, not
+//! by its chain through the newest block: a build without that chain ran as fast, and two
+//! chains side by side (the second half from zeros, corrected by the response to the first
+//! half's end) ran slower (README, "Block solves"). Solving two
 //! blocks per step from the blocks before them (halving the chain, one more block product
 //! per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within the noise of
 //! this machine. The (4,4) factors reach their steady interior only through the 1e-8 snap
@@ -177,22 +180,24 @@ impl SteadyBlocks {
     /// Copies x into the padded blocks `blocks`.
     #[inline(always)]
     pub(crate) fn gather(&self, x: &[f64], padded: &mut [Column], blocks: Range<usize>) {
-        let g = self.size;
         let from = &x[self.positions(blocks.clone())];
-        for (block, v) in padded[blocks].iter_mut().zip(from.chunks_exact(g)) {
-            *block = std::array::from_fn(|p| if p < g { v[p] } else { 0.0 });
+        let to = &mut padded[blocks];
+        match self.size {
+            3 => gather_blocks::<3>(from, to),
+            4 => gather_blocks::<4>(from, to),
+            _ => unreachable!("blocks of 3 or 4"),
         }
     }
 
     /// Copies the padded blocks `blocks` back to x.
     #[inline(always)]
     pub(crate) fn scatter(&self, padded: &[Column], x: &mut [f64], blocks: Range<usize>) {
-        let g = self.size;
         let to = &mut x[self.positions(blocks.clone())];
-        for (block, v) in padded[blocks].iter().zip(to.chunks_exact_mut(g)) {
-            for (p, vp) in v.iter_mut().enumerate() {
-                *vp = block[p];
-            }
+        let from = &padded[blocks];
+        match self.size {
+            3 => scatter_blocks::<3>(from, to),
+            4 => scatter_blocks::<4>(from, to),
+            _ => unreachable!("blocks of 3 or 4"),
         }
     }
 
@@ -217,6 +222,22 @@ impl SteadyBlocks {
             (4, 5) => run!(4, 5),
             _ => unreachable!("blocks of 3 (B = 11) or 4 (B = 19) reach ⌈B/G⌉ or one less"),
         }
+    }
+}
+
+/// x (whole blocks of G) into padded blocks, the lanes from G on zero.
+#[inline(always)]
+fn gather_blocks<const G: usize>(x: &[f64], padded: &mut [Column]) {
+    for (block, v) in padded.iter_mut().zip(x.chunks_exact(G)) {
+        *block = std::array::from_fn(|p| if p < G { v[p] } else { 0.0 });
+    }
+}
+
+/// Padded blocks back to x (whole blocks of G).
+#[inline(always)]
+fn scatter_blocks<const G: usize>(padded: &[Column], x: &mut [f64]) {
+    for (block, v) in padded.iter().zip(x.chunks_exact_mut(G)) {
+        v.copy_from_slice(&block[..G]);
     }
 }
 
