@@ -314,7 +314,7 @@ def scalar_speed(cfg: Config) -> list[str]:
         "| model | pass | first call incl. plan (ms) | best (ms) | Mpixel/s |",
         "|---|---|---:|---:|---:|",
     ]
-    for order in ((1, 1), (2, 2), (4, 4)):
+    for order in ((1, 1), (2, 2), (3, 3), (4, 4)):
         z = noisy_field(order, (size, size))
         for smooth in (False, True):
             model = model_of(order, SPEED_RHO)

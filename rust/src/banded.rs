@@ -147,9 +147,11 @@ impl SymmetricBand {
         let mut l = self.data.clone();
         factor_in_place(&mut l, n, b)?;
         let steady = FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED && segment_span(n, b) >= 2 * b;
-        if steady {
-            crate::steady_band::snap_interior(&mut l, n, b);
-        }
+        let snap = if steady {
+            crate::steady_band::snap_interior(&mut l, n, b)
+        } else {
+            None
+        };
         let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
         // Pre-scaled coefficients of the substitutions, zero outside the matrix: row i of L
         // (columns i − b..i) and column i below the pivot (rows i + 1..i + b), times 1/L_ii.
@@ -180,8 +182,8 @@ impl SymmetricBand {
             blocks: None,
             fused: fused_available(),
         };
-        if steady {
-            factor.blocks = block_size(b).and_then(|g| SteadyBlocks::new(&factor.data, n, b, g));
+        if let (Some(snap), Some(g)) = (&snap, block_size(b)) {
+            factor.blocks = SteadyBlocks::new(&factor.data, n, b, g, snap);
         }
         if steady && factor.blocks.is_none() {
             factor.steady = Steady::new(&factor.coefficients());

@@ -73,7 +73,7 @@ pub(crate) struct SteadyDirection {
 /// exactly periodic: the rows within a tolerance of the middle row of the same phase
 /// become copies of it, over the longest such range around the middle among the periods
 /// 1..=8 (a period that does not fit leaves only a short range, and nothing is replaced
-/// outside it); returns the tolerance.
+/// outside it); returns the tolerance, period and range (see [`Snap`]).
 ///
 /// The tolerance is the smallest of [`STEADY_TOLERANCES`]; a wider one only where the
 /// smallest leaves less than half the factor steady because of rounding noise, not of a
@@ -81,7 +81,7 @@ pub(crate) struct SteadyDirection {
 /// wider range covers half of it, and whose rows scatter about as much near the middle
 /// (the central quarter) as over the central half (a converging factor's deviations decay
 /// towards the middle).
-pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<f64> {
+pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<Snap> {
     if n < 2 * MAX_PERIOD {
         return None;
     }
@@ -129,7 +129,21 @@ pub(crate) fn snap_interior(l: &mut [f64], n: usize, b: usize) -> Option<f64> {
             l.copy_within(row(r), row(i).start);
         }
     }
-    Some(tolerance)
+    Some(Snap {
+        tolerance,
+        period,
+        rows: lo..hi,
+    })
+}
+
+/// What [`snap_interior`] made exactly periodic.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Snap {
+    /// The tolerance it took (one of [`STEADY_TOLERANCES`]).
+    pub(crate) tolerance: f64,
+    pub(crate) period: usize,
+    /// The rows that repeat with that period, bit for bit.
+    pub(crate) rows: Range<usize>,
 }
 
 /// The middle position of an order-n factor with the phase of position i.
@@ -138,11 +152,7 @@ fn reference(n: usize, i: usize, period: usize) -> usize {
 }
 
 /// The positions [lo, hi) around the middle for which `same(i, reference)` holds.
-pub(crate) fn periodic_range(
-    n: usize,
-    period: usize,
-    same: impl Fn(usize, usize) -> bool,
-) -> (usize, usize) {
+fn periodic_range(n: usize, period: usize, same: impl Fn(usize, usize) -> bool) -> (usize, usize) {
     let middle = n / 2 / period * period;
     let steady = |i: &usize| same(*i, reference(n, *i, period));
     let lo = (0..middle).rev().find(|i| !steady(i)).map_or(0, |i| i + 1);
@@ -151,7 +161,7 @@ pub(crate) fn periodic_range(
 }
 
 /// The period in 1..=MAX_PERIOD with the longest range (the shortest among equals).
-pub(crate) fn longest(range: impl Fn(usize) -> (usize, usize)) -> (usize, (usize, usize)) {
+fn longest(range: impl Fn(usize) -> (usize, usize)) -> (usize, (usize, usize)) {
     (1..=MAX_PERIOD)
         .map(|p| (p, range(p)))
         .max_by_key(|&(p, (lo, hi))| (hi - lo, usize::MAX - p))
@@ -397,10 +407,12 @@ mod tests {
         let exact = a.cholesky_unsnapped();
         let mut snapped = exact.clone();
         // an exactly periodic matrix: its factor settles to rounding, the smallest tolerance
-        assert_eq!(
-            snap_interior(&mut snapped, n, b),
-            Some(STEADY_TOLERANCES[0])
-        );
+        let snap = snap_interior(&mut snapped, n, b).unwrap();
+        assert_eq!((snap.tolerance, snap.period), (STEADY_TOLERANCES[0], 2));
+        // (the rows snapped repeat bit for bit: the range the block plans are built on)
+        let row = |i: usize| &snapped[i * (b + 1)..(i + 1) * (b + 1)];
+        assert!(snap.rows.len() >= n / 2);
+        assert!(snap.rows.clone().all(|i| row(i) == row(n / 2 + i % 2)));
         let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let moved = max_difference(&exact, &snapped);
         assert!(
@@ -417,7 +429,7 @@ mod tests {
         let a = periodic(n, b, 3, 2e-9);
         let exact = a.cholesky_unsnapped();
         let mut snapped = exact.clone();
-        let tolerance = snap_interior(&mut snapped, n, b).unwrap();
+        let tolerance = snap_interior(&mut snapped, n, b).unwrap().tolerance;
         assert_eq!(tolerance, STEADY_TOLERANCES[1]);
         let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(max_difference(&exact, &snapped) <= tolerance * scale);

@@ -28,8 +28,10 @@
 
 use std::ops::Range;
 
+use nalgebra::DMatrix;
+
 use crate::banded::Arith;
-use crate::steady_band::{longest, periodic_range};
+use crate::steady_band::Snap;
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
 pub(crate) type Column = [f64; 4];
@@ -70,65 +72,53 @@ struct BlockSteps {
 }
 
 impl SteadyBlocks {
-    /// The block plan of the snapped factor `l` (order n, bandwidth b, rows of b + 1 entries,
-    /// see `SymmetricBand`) in blocks of g positions, if its exactly periodic interior has a
-    /// period dividing g and spans at least [`MIN_BLOCKS`] blocks clear of the ends.
-    pub(crate) fn new(l: &[f64], n: usize, b: usize, g: usize) -> Option<SteadyBlocks> {
-        let row = |i: usize| &l[i * (b + 1)..(i + 1) * (b + 1)];
-        let (period, (lo, hi)) = longest(|p| periodic_range(n, p, |i, r| row(i) == row(r)));
-        if g % period != 0 {
+    /// The block plan of the factor `l` (order n, bandwidth b, rows of b + 1 entries, see
+    /// `SymmetricBand`) in blocks of g positions, if the rows `snap` made exactly periodic
+    /// have a period dividing g and span at least [`MIN_BLOCKS`] blocks clear of the ends.
+    pub(crate) fn new(
+        l: &[f64],
+        n: usize,
+        b: usize,
+        g: usize,
+        snap: &Snap,
+    ) -> Option<SteadyBlocks> {
+        if g % snap.period != 0 {
             return None;
         }
         let reach = b.div_ceil(g);
-        let start = lo.div_ceil(g).max(reach) * g;
-        let end = (hi / g).min((n / g).saturating_sub(reach)) * g;
+        let start = snap.rows.start.div_ceil(g).max(reach) * g;
+        let end = (snap.rows.end / g).min((n / g).saturating_sub(reach)) * g;
         if end < start + MIN_BLOCKS * g {
             return None;
         }
-        let entry = |i: usize, k: usize| {
-            if i >= k && i - k <= b {
-                l[i * (b + 1) + k + b - i]
-            } else {
-                0.0
-            }
-        };
-        let block = |k: usize| -> [[f64; 4]; 4] {
-            std::array::from_fn(|p| {
-                std::array::from_fn(|q| {
-                    if p < g && q < g {
-                        entry(start + p, start + q - k * g)
-                    } else {
-                        0.0
-                    }
-                })
+        // block k of the interior's block row: L[start + p, start + q − k·g], p, q < g
+        let block = |k: usize| {
+            DMatrix::from_fn(g, g, |p, q| {
+                let (i, j) = (start + p, (start + q).wrapping_sub(k * g));
+                if j <= i && i - j <= b {
+                    l[i * (b + 1) + j + b - i]
+                } else {
+                    0.0
+                }
             })
         };
-        let inverse = lower_inverse(&block(0), g);
-        let mut blocks: Vec<[[f64; 4]; 4]> = (1..=reach).map(block).collect();
+        let inverse = block(0)
+            .solve_lower_triangular(&DMatrix::identity(g, g))
+            .expect("a Cholesky factor's diagonal is positive");
+        let mut blocks: Vec<DMatrix<f64>> = (1..=reach).map(block).collect();
         // the farthest block is zero when A is block banded (the row filters): left out
-        if blocks
-            .last()
-            .is_some_and(|m| m.iter().flatten().all(|&v| v == 0.0))
-        {
+        if blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
             blocks.pop();
         }
-        let transpose =
-            |m: &[[f64; 4]; 4]| std::array::from_fn(|p| std::array::from_fn(|q| m[q][p]));
-        let forward = BlockSteps {
-            scale: columns(&inverse),
-            terms: blocks
-                .iter()
-                .map(|lk| columns(&product(&inverse, lk)))
-                .collect(),
+        let steps = |scale: DMatrix<f64>, terms: Vec<DMatrix<f64>>| BlockSteps {
+            terms: terms.iter().map(|m| columns(&(&scale * m))).collect(),
+            scale: columns(&scale),
         };
-        let inverse_t = transpose(&inverse);
-        let backward = BlockSteps {
-            scale: columns(&inverse_t),
-            terms: blocks
-                .iter()
-                .map(|lk| columns(&product(&inverse_t, &transpose(lk))))
-                .collect(),
-        };
+        let forward = steps(inverse.clone(), blocks.clone());
+        let backward = steps(
+            inverse.transpose(),
+            blocks.iter().map(|m| m.transpose()).collect(),
+        );
         Some(SteadyBlocks {
             size: g,
             start,
@@ -308,29 +298,16 @@ fn subtract<A: Arith, const G: usize>(acc: &mut Column, m: &Block, w: &Column) {
     }
 }
 
-/// The inverse of the lower triangular g × g block `c` (by rows), row by row:
-/// X_i = (e_i − Σ_{k<i} C_ik X_k) / C_ii.
-fn lower_inverse(c: &[[f64; 4]; 4], g: usize) -> [[f64; 4]; 4] {
-    let mut inv = [[0.0; 4]; 4];
-    for i in 0..g {
-        let mut row = [0.0; 4];
-        row[i] = 1.0;
-        for (k, inv_k) in inv.iter().enumerate().take(i) {
-            for (r, v) in row.iter_mut().zip(inv_k) {
-                *r -= c[i][k] * v;
+/// The columns of the g × g matrix m, each padded to four lanes (as are the columns from g
+/// on).
+fn columns(m: &DMatrix<f64>) -> Block {
+    std::array::from_fn(|q| {
+        std::array::from_fn(|p| {
+            if p < m.nrows() && q < m.ncols() {
+                m[(p, q)]
+            } else {
+                0.0
             }
-        }
-        inv[i] = row.map(|v| v / c[i][i]);
-    }
-    inv
-}
-
-/// a b (by rows).
-fn product(a: &[[f64; 4]; 4], b: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-/// The columns of m (by rows).
-fn columns(m: &[[f64; 4]; 4]) -> Block {
-    std::array::from_fn(|q| std::array::from_fn(|p| m[p][q]))
+        })
+    })
 }
