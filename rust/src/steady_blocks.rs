@@ -18,13 +18,12 @@
 //! by segments. The recursion is bound by the throughput of its multiply-adds and loads, not
 //! by its chain through the newest block: a build without that chain ran as fast, and two
 //! chains side by side (the second half from zeros, corrected by the response to the first
-//! half's end) ran slower (README, "Block solves"). Solving two
-//! blocks per step from the blocks before them (halving the chain, one more block product
-//! per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within the noise of
-//! this machine. The (4,4) factors reach their steady interior only through the 1e-8 snap
-//! of `steady_band`. The positions
-//! before and after the block interior are substituted one at a time with the factor's own
-//! coefficients.
+//! half's end) ran slower (README, "Block solves"). Solving two blocks per step from the
+//! blocks before them (halving the chain, one more block product per pair) did not pay
+//! either: no faster for (3,3), ~10 % for (4,4), within the noise of this machine. The (4,4)
+//! factors reach their steady interior only through the 1e-8 snap of `steady_band`. The
+//! positions before and after the block interior are substituted one at a time with the
+//! factor's own coefficients.
 
 use std::ops::Range;
 
@@ -94,7 +93,8 @@ impl SteadyBlocks {
         // block k of the interior's block row: L[start + p, start + q − k·g], p, q < g
         let block = |k: usize| {
             DMatrix::from_fn(g, g, |p, q| {
-                let (i, j) = (start + p, (start + q).wrapping_sub(k * g));
+                // (start ≥ K·g: no column before the first)
+                let (i, j) = (start + p, start + q - k * g);
                 if j <= i && i - j <= b {
                     l[i * (b + 1) + j + b - i]
                 } else {
@@ -102,9 +102,7 @@ impl SteadyBlocks {
                 }
             })
         };
-        let inverse = block(0)
-            .solve_lower_triangular(&DMatrix::identity(g, g))
-            .expect("a Cholesky factor's diagonal is positive");
+        let inverse = block(0).solve_lower_triangular(&DMatrix::identity(g, g))?;
         let mut blocks: Vec<DMatrix<f64>> = (1..=reach).map(block).collect();
         // the farthest block is zero when A is block banded (the row filters): left out
         if blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
