@@ -15,15 +15,16 @@
 //! multiply-adds per position to correct the start of each segment, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
 //! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
-//! by segments. The recursion is bound by the throughput of its multiply-adds and loads, not
-//! by its chain through the newest block: a build without that chain ran as fast, and two
-//! chains side by side (the second half from zeros, corrected by the response to the first
-//! half's end) ran slower (README, "Block solves"). Solving two blocks per step from the
-//! blocks before them (halving the chain, one more block product per pair) did not pay
-//! either: no faster for (3,3), ~10 % for (4,4), within the noise of this machine. The (4,4)
-//! factors reach their steady interior only through the 1e-8 snap of `steady_band`. The
-//! positions before and after the block interior are substituted one at a time with the
-//! factor's own coefficients.
+//! by segments. The recursion is bound by the throughput of its multiply-adds and memory
+//! operations, not by its chain through the newest block: a build without that chain ran as
+//! fast, and two chains side by side (the second half from zeros, corrected by the response
+//! to the first half's end) ran slower (README, "Block solves"); carrying the last K blocks
+//! in registers (no reload of a block stored a few steps before) gained ~10 % for (3,3).
+//! Solving two blocks per step from the blocks before them (halving the chain, one more
+//! block product per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within
+//! the noise of this machine. The (4,4) factors reach their steady interior only through the
+//! 1e-8 snap of `steady_band`. The positions before and after the block interior are
+//! substituted one at a time with the factor's own coefficients.
 
 use std::ops::Range;
 
@@ -239,39 +240,40 @@ fn recursion<A: Arith, const G: usize, const K: usize, const REV: bool>(
     let terms: &[Block; K] = steps.terms[..].try_into().unwrap();
     let len = padded.len();
     assert!(len >= 2 * K);
-    // the newest block is carried in a register: only its product is on the latency chain
+    // the last K blocks are carried in registers (newest first): no step reloads a block
+    // it has just stored
     if REV {
-        let mut newest = padded[len - K];
+        let mut recent: [Column; K] = std::array::from_fn(|k| padded[len - K + k]);
         for j in (K..len - K).rev() {
-            newest = step::<A, G, K, REV>(steps, terms, padded, j, newest);
+            recent = step::<A, G, K>(steps, terms, padded, j, &recent);
         }
     } else {
-        let mut newest = padded[K - 1];
+        let mut recent: [Column; K] = std::array::from_fn(|k| padded[K - 1 - k]);
         for j in K..len - K {
-            newest = step::<A, G, K, REV>(steps, terms, padded, j, newest);
+            recent = step::<A, G, K>(steps, terms, padded, j, &recent);
         }
     }
 }
 
-/// Block j of a [`recursion`], `newest` the block before it in the recursion's order (a
-/// function, not a closure: LLVM would not inline a closure into the caller's target
-/// features).
+/// Block j of a [`recursion`] from the K blocks before it in the recursion's order (newest
+/// first); returns them with block j in front (a function, not a closure: LLVM would not
+/// inline a closure into the caller's target features).
 #[inline(always)]
-fn step<A: Arith, const G: usize, const K: usize, const REV: bool>(
+fn step<A: Arith, const G: usize, const K: usize>(
     steps: &BlockSteps,
     terms: &[Block; K],
     padded: &mut [Column],
     j: usize,
-    newest: Column,
-) -> Column {
+    recent: &[Column; K],
+) -> [Column; K] {
     let mut acc = scaled::<A, G>(&steps.scale, &padded[j]);
-    for k in (2..=K).rev() {
-        let w = if REV { padded[j + k] } else { padded[j - k] };
-        subtract::<A, G>(&mut acc, &terms[k - 1], &w);
+    for k in (0..K).rev() {
+        subtract::<A, G>(&mut acc, &terms[k], &recent[k]);
     }
-    subtract::<A, G>(&mut acc, &terms[0], &newest);
     padded[j] = acc;
-    acc
+    let mut next = [acc; K];
+    next[1..].copy_from_slice(&recent[..K - 1]);
+    next
 }
 
 /// m v (m by columns), lane by lane.
