@@ -23,8 +23,10 @@ DETAIL_MODEL = ARFieldModel([0.7, 0.7], [1, 1])
 
 def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.ndarray]:
     """(mean, variance) of every pixel's window × window box (odd `window`; the box is cut
-    at the borders), for an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel."""
-    z = images(image, np.shape(image)[-1])
+    at the borders), for an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
+    NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
+    box holds none."""
+    z = images(image, np.shape(image)[-1], missing=True)
     _odd_window(window)
     mean, var = np.empty_like(z), np.empty_like(z)
     _core.local_moments_into(z, int(window) // 2, mean, var)
@@ -41,14 +43,18 @@ def _odd_window(window: object) -> None:
 def estimate_noise_var(image: npt.ArrayLike) -> float:
     """σ_θ² of white noise in an image (or a stack, axes (…, H, W)): Donoho's robust estimate
     from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
-    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²))."""
+    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²)).
+    Blocks with a NaN (missing) pixel are left out."""
     z = np.asarray(image, dtype=np.float64)
     if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2:
         raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
     h, w = z.shape[-2] // 2 * 2, z.shape[-1] // 2 * 2
     z = z[..., :h, :w]
     detail = (z[..., 0::2, 0::2] - z[..., 0::2, 1::2] - z[..., 1::2, 0::2] + z[..., 1::2, 1::2]) / 2
-    return float((np.median(np.abs(detail[np.isfinite(detail)])) / 0.6745) ** 2)
+    detail = detail[np.isfinite(detail)]
+    if detail.size == 0:
+        raise ValueError("no 2×2 block without a missing pixel: cannot estimate the noise")
+    return float((np.median(np.abs(detail)) / 0.6745) ** 2)
 
 
 def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldModel, float, float]:
@@ -59,16 +65,19 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     h = 1..12 (pooled over all lines, Rust kernel), for every n = 1..max_order and ρ; the best
     (n, ρ) per axis wins, σ² is the mean of the per-axis fits and the noise variance is the
     lag-0 autocovariance minus σ². ``identify`` is the better tool for noise-free data.
+    NaN pixels are missing: left out of the mean and of every lagged product.
     """
-    z = images(image, np.shape(image)[-1])
+    z = images(image, np.shape(image)[-1], missing=True)
     stack = z.reshape(-1, *z.shape[-2:])
-    mean = float(stack.mean())
+    if np.isnan(stack).all():
+        raise ValueError("every pixel is NaN (missing): there is no model to fit")
+    mean = float(np.nanmean(stack))
     centred = np.ascontiguousarray(stack - mean)
-    if not np.any(centred):
+    if not np.nanmax(np.abs(centred)) > 0:
         raise ValueError("the image is constant: there is no model to fit")
     fits = [_fit_axis(centred, axis, max_order) for axis in (1, 2)]
     variance = float(np.mean([f[2] for f in fits]))
-    noise = float(np.mean(centred**2)) - variance
+    noise = float(np.nanmean(centred**2)) - variance
     model = ARFieldModel([f[0] for f in fits], [f[1] for f in fits], sigma=np.sqrt(variance))
     return model, mean, noise
 
@@ -142,14 +151,20 @@ def denoise(
         (:class:`VectorRowFilter`, optimal, O(W²) per row; not adaptive).
     smooth : run the backward pass over the rows (default).
     mean : the field mean of the stationary model (None: the image mean).
-    Returns float64 of the image's shape. uint8/uint16/float inputs are accepted; NaN is not.
+    Returns float64 of the image's shape. uint8/uint16/float inputs are accepted.
+    NaN pixels are missing observations (method="scalar"): left out of the noise estimate,
+    the model fit and the box moments, given weight 0 by the filter and filled by its
+    estimate from the neighbouring pixels (a box without an observed pixel is widened,
+    radius 2r + 1, …, until it holds one). method="vector" needs every pixel.
     """
     if method not in ("scalar", "vector"):
         raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")
     adaptive = method == "scalar" if adaptive is None else bool(adaptive)
     if adaptive and method == "vector":
         raise ValueError("adaptive denoising needs method='scalar' (per-pixel noise variances)")
-    z = images(image, np.shape(image)[-1])
+    z = images(image, np.shape(image)[-1], missing=method == "scalar")
+    if np.isnan(z).all():
+        raise ValueError("every pixel is NaN (missing): there is nothing to denoise")
     nv = estimate_noise_var(z) if noise_var is None else positive_float(noise_var, "noise_var")
     if not nv > 0:
         raise ValueError("the estimated noise variance is 0: the image looks noise-free")
@@ -158,7 +173,7 @@ def denoise(
     if model is None:
         model, fitted_mean, _ = model_from_noisy(z)
         mean = fitted_mean if mean is None else mean
-    mean = float(z.mean()) if mean is None else float(mean)
+    mean = float(np.nanmean(z)) if mean is None else float(mean)
     if method == "scalar":
         filt = ScalarRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
     else:

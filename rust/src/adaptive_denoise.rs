@@ -7,7 +7,10 @@
 //! With ρ = 0 this is the adaptive (Lee) Wiener filter; the row model adds the Kalman
 //! smoothing along and across the rows. The filter's nominal noise variance is 1/median(w),
 //! the median taken over a regular subsample of at most NOMINAL_SAMPLE pixels (it only sets
-//! the prediction-error model; the per-pixel weights do the adapting).
+//! the prediction-error model; the per-pixel weights do the adapting). NaN pixels are
+//! missing: left out of the box moments, weight 0 in the filter (its ξ̂ there is predicted
+//! from the neighbours), σ kept; where a box holds no observed pixel, it is widened until it
+//! holds one.
 
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
@@ -69,34 +72,91 @@ fn frame(
     out: &mut [f64],
 ) -> Result<()> {
     let noise_var = settings.noise_var;
-    // `out` holds μ, then x̂; `var` the box variance, then ξ̂
-    let mut var = vec![0.0; z.len()];
-    local_moments(z, 1, height, width, settings.radius, out, &mut var)?;
+    // `out` holds μ, then x̂; `scale` the box variance, then σ
+    let mut scale = vec![0.0; z.len()];
+    local_moments(z, 1, height, width, settings.radius, out, &mut scale)?;
+    widen_empty_boxes(z, (height, width, settings.radius), out, &mut scale)?;
     let mut residual = vec![0.0; z.len()];
     let mut weights = vec![0.0; z.len()];
-    for (((r, w), (x, mu)), v) in residual
+    for (((r, w), (x, mu)), s) in residual
         .iter_mut()
         .zip(&mut weights)
         .zip(z.iter().zip(&*out))
-        .zip(&var)
+        .zip(&mut scale)
     {
-        let signal = (v - noise_var).max(SIGNAL_FLOOR * noise_var);
-        *w = signal / noise_var;
-        *r = (x - mu) / signal.sqrt();
+        let signal = (*s - noise_var).max(SIGNAL_FLOOR * noise_var);
+        *s = signal.sqrt();
+        // a missing pixel: weight 0 (its residual is ignored), σ kept for x̂ = μ + σ ξ̂
+        let observed = !x.is_nan();
+        *w = if observed { signal / noise_var } else { 0.0 };
+        *r = if observed { (x - mu) / *s } else { 0.0 };
     }
     let nominal = 1.0 / sample_median(&weights);
     let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?;
-    filter.filter_image(&residual, Some(&weights), &mut var, height, settings.smooth)?;
-    for ((x, w), detail) in out.iter_mut().zip(&weights).zip(&var) {
-        *x += (w * noise_var).sqrt() * detail;
+    let mut detail = vec![0.0; z.len()];
+    filter.filter_image(
+        &residual,
+        Some(&weights),
+        &mut detail,
+        height,
+        settings.smooth,
+    )?;
+    for ((x, s), d) in out.iter_mut().zip(&scale).zip(&detail) {
+        *x += s * d;
     }
     Ok(())
 }
 
-/// The upper median of values[0], values[s], values[2s], … with s = ⌈len / NOMINAL_SAMPLE⌉.
+/// Where a box holds no observed pixel (its moments are NaN), the moments of the box widened
+/// to radius 2r + 1, then 2(2r + 1) + 1, … until it holds one (at the latest when it covers
+/// the frame). An error if the frame has no observed pixel.
+fn widen_empty_boxes(
+    z: &[f64],
+    (height, width, radius): (usize, usize, usize),
+    mean: &mut [f64],
+    var: &mut [f64],
+) -> Result<()> {
+    if !mean.iter().any(|m| m.is_nan()) {
+        return Ok(());
+    }
+    if z.iter().all(|v| v.is_nan()) {
+        return Err(FieldError::NonFinite(
+            "a frame has no observed pixel: every pixel is NaN".into(),
+        ));
+    }
+    let (mut wide_mean, mut wide_var) = (vec![0.0; z.len()], vec![0.0; z.len()]);
+    let mut radius = radius;
+    while mean.iter().any(|m| m.is_nan()) {
+        radius = 2 * radius + 1;
+        local_moments(z, 1, height, width, radius, &mut wide_mean, &mut wide_var)?;
+        for ((m, v), (wm, wv)) in mean
+            .iter_mut()
+            .zip(&mut *var)
+            .zip(wide_mean.iter().zip(&wide_var))
+        {
+            if m.is_nan() {
+                (*m, *v) = (*wm, *wv);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The upper median of the observed (> 0) values among values[0], values[s], values[2s], …
+/// with s = ⌈len / NOMINAL_SAMPLE⌉; of all the observed values if that sample holds none.
+/// The caller has made sure that some value is observed.
 fn sample_median(values: &[f64]) -> f64 {
     let stride = values.len().div_ceil(NOMINAL_SAMPLE);
-    let mut sample: Vec<f64> = values.iter().step_by(stride).copied().collect();
+    let observed = |v: &f64| *v > 0.0;
+    let mut sample: Vec<f64> = values
+        .iter()
+        .step_by(stride)
+        .copied()
+        .filter(observed)
+        .collect();
+    if sample.is_empty() {
+        sample = values.iter().copied().filter(observed).collect();
+    }
     let middle = sample.len() / 2;
     *sample.select_nth_unstable_by(middle, f64::total_cmp).1
 }
@@ -143,12 +203,32 @@ mod tests {
     }
 
     #[test]
+    fn missing_pixels_of_a_flat_image_are_filled_flat() {
+        let model = FieldModel::new(&[0.7, 0.7], &[1, 1], 1.0).unwrap();
+        let (h, w) = (16, 14);
+        let mut z = vec![3.0; h * w];
+        z[17] = f64::NAN;
+        // a hole wider than the 5 × 5 window: its centre's boxes are widened
+        for i in 4..12 {
+            z[i * w + 3..i * w + 11].fill(f64::NAN);
+        }
+        let mut out = vec![0.0; h * w];
+        adaptive_denoise(&z, 1, h, w, &settings(0.1, &model, 2), &mut out).unwrap();
+        assert!(out.iter().all(|v| (v - 3.0).abs() < 1e-12), "{out:?}");
+    }
+
+    #[test]
     fn median_of_a_sample() {
         assert_eq!(sample_median(&[3.0, 1.0, 2.0]), 2.0);
         assert_eq!(sample_median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
         let many: Vec<f64> = (0..3 * NOMINAL_SAMPLE).map(|k| k as f64).collect();
         // every third value, 0, 3, …: the upper median of the sample
         assert_eq!(sample_median(&many), (3 * (NOMINAL_SAMPLE / 2)) as f64);
+        // the unobserved (0) values are left out; if the sample holds none observed, all are used
+        assert_eq!(sample_median(&[0.0, 5.0, 0.0, 1.0, 2.0]), 2.0);
+        let mut sparse = vec![0.0; 3 * NOMINAL_SAMPLE];
+        sparse[1] = 7.0;
+        assert_eq!(sample_median(&sparse), 7.0);
     }
 
     #[test]
@@ -158,8 +238,10 @@ mod tests {
         let z = vec![1.0; 12];
         assert!(adaptive_denoise(&z, 1, 3, 4, &settings(0.0, &model, 1), &mut out).is_err());
         assert!(adaptive_denoise(&z[..11], 1, 3, 4, &settings(0.1, &model, 1), &mut out).is_err());
-        let mut nan = z.clone();
-        nan[5] = f64::NAN;
+        let mut inf = z.clone();
+        inf[5] = f64::INFINITY;
+        assert!(adaptive_denoise(&inf, 1, 3, 4, &settings(0.1, &model, 1), &mut out).is_err());
+        let nan = vec![f64::NAN; 12];
         assert!(adaptive_denoise(&nan, 1, 3, 4, &settings(0.1, &model, 1), &mut out).is_err());
         let line = FieldModel::new(&[0.7], &[1], 1.0).unwrap();
         assert!(adaptive_denoise(&z, 1, 3, 4, &settings(0.1, &line, 1), &mut out).is_err());

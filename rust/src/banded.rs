@@ -66,6 +66,13 @@ pub struct SymmetricBand {
     data: Vec<f64>,
 }
 
+/// Where entry (i, k), i − b ≤ k ≤ i, of a lower band of bandwidth b is stored (rows of b + 1
+/// entries, the diagonal last): the layout of [`SymmetricBand`] and of its Cholesky factor.
+#[inline(always)]
+pub(crate) fn band_index(b: usize, i: usize, k: usize) -> usize {
+    i * (b + 1) + k + b - i
+}
+
 impl SymmetricBand {
     /// The zero matrix.
     pub fn zeros(size: usize, bandwidth: usize) -> Self {
@@ -83,7 +90,7 @@ impl SymmetricBand {
 
     #[inline(always)]
     fn index(&self, i: usize, k: usize) -> usize {
-        i * (self.bandwidth + 1) + k + self.bandwidth - i
+        band_index(self.bandwidth, i, k)
     }
 
     /// Adds `value` to entries (i, k) and (k, i); |i - k| must be within the band.

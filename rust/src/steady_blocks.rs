@@ -30,7 +30,7 @@ use std::ops::Range;
 
 use nalgebra::DMatrix;
 
-use crate::banded::Arith;
+use crate::banded::{band_index, Arith};
 use crate::steady_band::Snap;
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
@@ -97,7 +97,7 @@ impl SteadyBlocks {
                 // (start ≥ K·g: no column before the first)
                 let (i, j) = (start + p, start + q - k * g);
                 if j <= i && i - j <= b {
-                    l[i * (b + 1) + j + b - i]
+                    l[band_index(b, i, j)]
                 } else {
                     0.0
                 }
@@ -109,15 +109,18 @@ impl SteadyBlocks {
         if blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
             blocks.pop();
         }
-        let steps = |scale: DMatrix<f64>, terms: Vec<DMatrix<f64>>| BlockSteps {
-            terms: terms.iter().map(|m| columns(&(&scale * m))).collect(),
-            scale: columns(&scale),
+        // backward: C⁻ᵀ L_kᵀ = (L_k C⁻¹)ᵀ
+        let forward = BlockSteps {
+            terms: blocks.iter().map(|m| columns(&(&inverse * m))).collect(),
+            scale: columns(&inverse),
         };
-        let forward = steps(inverse.clone(), blocks.clone());
-        let backward = steps(
-            inverse.transpose(),
-            blocks.iter().map(|m| m.transpose()).collect(),
-        );
+        let backward = BlockSteps {
+            terms: blocks
+                .iter()
+                .map(|m| columns(&(m * &inverse).transpose()))
+                .collect(),
+            scale: columns(&inverse.transpose()),
+        };
         Some(SteadyBlocks {
             size: g,
             start,
