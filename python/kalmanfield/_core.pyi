@@ -3,6 +3,9 @@ import numpy.typing as npt
 
 MAX_ORDER: int
 
+class NonFiniteError(ValueError):
+    """A NaN or infinite value where a kernel needs a finite one."""
+
 class FieldModel:
     def __init__(self, rho: list[float], order: list[int], sigma: float) -> None: ...
     def beta(self) -> float: ...

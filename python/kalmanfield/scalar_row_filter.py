@@ -13,8 +13,6 @@ from ._validation import positive_int, real_array
 from .ar_field_model import ARFieldModel
 
 _MODES = ("ends", "exact", "toeplitz")
-# how the Rust kernel reports a NaN or infinite pixel (FieldError::NonFinite)
-_KERNEL_NON_FINITE = "NaN or infinite pixels"
 
 
 class ScalarRowFilter(RowFilter):
@@ -110,9 +108,8 @@ class ScalarRowFilter(RowFilter):
             # unless it finds a NaN (then a missing pixel) or infinite one (refused below)
             try:
                 return self._filter_checked(images(z, self._width, finite=False))
-            except ValueError as err:
-                if _KERNEL_NON_FINITE not in str(err):
-                    raise
+            except _core.NonFiniteError:
+                pass
         arr = images(z, self._width, missing=True)
         missing = np.isnan(arr)
         if noise_var is None and not missing.any():

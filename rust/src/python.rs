@@ -27,9 +27,19 @@ use pyo3::prelude::*;
 mod branching;
 mod segment;
 
+pyo3::create_exception!(
+    _core,
+    NonFiniteError,
+    PyValueError,
+    "A NaN or infinite value where the kernel needs a finite one (FieldError::NonFinite)."
+);
+
 impl From<FieldError> for PyErr {
     fn from(e: FieldError) -> PyErr {
-        PyValueError::new_err(e.to_string())
+        match e {
+            FieldError::NonFinite(_) => NonFiniteError::new_err(e.to_string()),
+            _ => PyValueError::new_err(e.to_string()),
+        }
     }
 }
 
@@ -604,6 +614,7 @@ fn wiener_map<'py>(
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFieldModel>()?;
+    m.add("NonFiniteError", m.py().get_type::<NonFiniteError>())?;
     m.add_class::<PyVectorRowFilter>()?;
     m.add_class::<PyScalarRowFilter>()?;
     branching::register(m)?;

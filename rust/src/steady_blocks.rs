@@ -22,7 +22,9 @@
 //! in registers (no reload of a block stored a few steps before) gained ~10 % for (3,3).
 //! Solving two blocks per step from the blocks before them (halving the chain, one more
 //! block product per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within
-//! the noise of this machine. The (4,4) factors reach their steady interior only through the
+//! the noise of this machine. Nor did broadcasting each new block's components once and
+//! carrying the broadcasts (G shuffles per step instead of K·G; bit-identical results):
+//! (3,3) unchanged, (4,4) ~10 % slower (its 16 broadcast vectors spill). The (4,4) factors reach their steady interior only through the
 //! 1e-8 snap of `steady_band`. The positions before and after the block interior are
 //! substituted one at a time with the factor's own coefficients.
 
