@@ -222,7 +222,7 @@ mod tests {
         assert_eq!(sample_median(&[3.0, 1.0, 2.0]), 2.0);
         assert_eq!(sample_median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
         let many: Vec<f64> = (0..3 * NOMINAL_SAMPLE).map(|k| k as f64).collect();
-        // every third value, 0, 3, …: the upper median of the sample
+        // every third value, 3, 6, … (0 counts as unobserved): the upper median of the sample
         assert_eq!(sample_median(&many), (3 * (NOMINAL_SAMPLE / 2)) as f64);
         // the unobserved (0) values are left out; if the sample holds none observed, all are used
         assert_eq!(sample_median(&[0.0, 5.0, 0.0, 1.0, 2.0]), 2.0);
