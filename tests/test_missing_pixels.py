@@ -209,8 +209,8 @@ def test_adaptive_denoise_equals_reference(rho, order, radius, smooth):
 
 @pytest.mark.parametrize("smooth", [False, True])
 def test_adaptive_denoise_with_missing_pixels_equals_reference(smooth):
-    """Scattered NaN pixels and a hole wider than the window (whose centre takes the frame's
-    moments): Rust kernel == NumPy twin, and the fill is close to the clean image."""
+    """Scattered NaN pixels and a hole wider than the window (whose centre's boxes are
+    widened): Rust kernel == NumPy twin, and the fill is close to the clean image."""
     rng = np.random.default_rng(7)
     clean = np.add.outer(np.sin(0.3 * np.arange(29)), 2.0 * (np.arange(31) > 15))
     z = clean + 0.3 * rng.standard_normal(clean.shape)

@@ -163,7 +163,7 @@ def denoise(
     if adaptive and method == "vector":
         raise ValueError("adaptive denoising needs method='scalar' (per-pixel noise variances)")
     z = images(image, np.shape(image)[-1], missing=method == "scalar")
-    if np.isnan(z).all():
+    if np.isnan(z.flat[0]) and np.isnan(z).all():  # (a pass only if the first pixel is NaN)
         raise ValueError("every pixel is NaN (missing): there is nothing to denoise")
     nv = estimate_noise_var(z) if noise_var is None else positive_float(noise_var, "noise_var")
     if not nv > 0:

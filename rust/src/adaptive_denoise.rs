@@ -3,7 +3,7 @@
 //! the (2r+1)² box around each pixel (`local_moments`; σ² floored at SIGNAL_FLOOR σ_θ²) and
 //! ξ a unit-variance AR field of the given row model. The normalised residual
 //! (z − μ)/σ = ξ + θ/σ is filtered by the quasi-optimal row filter (Toeplitz modes) with the
-//! per-pixel weight w = σ²/σ_θ² (1/noise variance of the residual) and x̂ = μ + √(w σ_θ²) ξ̂.
+//! per-pixel weight w = σ²/σ_θ² (1/noise variance of the residual) and x̂ = μ + σ ξ̂.
 //! With ρ = 0 this is the adaptive (Lee) Wiener filter; the row model adds the Kalman
 //! smoothing along and across the rows. The filter's nominal noise variance is 1/median(w),
 //! the median taken over a regular subsample of at most NOMINAL_SAMPLE pixels (it only sets

@@ -159,7 +159,7 @@ impl SymmetricBand {
         } else {
             None
         };
-        let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[i * (b + 1) + b]).collect();
+        let inverse_diagonal: Vec<f64> = (0..n).map(|i| 1.0 / l[band_index(b, i, i)]).collect();
         // Pre-scaled coefficients of the substitutions, zero outside the matrix: row i of L
         // (columns i − b..i) and column i below the pivot (rows i + 1..i + b), times 1/L_ii.
         let mut forward = vec![0.0; n * b];
@@ -208,14 +208,14 @@ fn substitute_plain(l: &[f64], inv: &[f64], b: usize, x: &mut [f64]) {
     let n = inv.len();
     for i in 0..n {
         let first = i.saturating_sub(b);
-        let row = &l[i * (b + 1) + first + b - i..i * (b + 1) + b];
+        let row = &l[band_index(b, i, first)..band_index(b, i, i)];
         let sum: f64 = row.iter().zip(&x[first..i]).map(|(a, v)| a * v).sum();
         x[i] = (x[i] - sum) * inv[i];
     }
     for i in (0..n).rev() {
         let mut acc = x[i];
         for j in (1..=b.min(n - 1 - i)).rev() {
-            acc -= l[(i + j) * (b + 1) + b - j] * x[i + j];
+            acc -= l[band_index(b, i + j, i)] * x[i + j];
         }
         x[i] = acc * inv[i];
     }
@@ -226,10 +226,10 @@ fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
     for i in 0..n {
         let first = i.saturating_sub(b);
         for k in first..=i {
-            let mut sum = l[i * (b + 1) + k + b - i];
+            let mut sum = l[band_index(b, i, k)];
             let start = first.max(k.saturating_sub(b));
             for p in start..k {
-                sum -= l[i * (b + 1) + p + b - i] * l[k * (b + 1) + p + b - k];
+                sum -= l[band_index(b, i, p)] * l[band_index(b, k, p)];
             }
             if k == i {
                 if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -237,9 +237,9 @@ fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
                         "a filter matrix is not positive definite (ill-conditioned model)".into(),
                     ));
                 }
-                l[i * (b + 1) + b] = sum.sqrt();
+                l[band_index(b, i, i)] = sum.sqrt();
             } else {
-                l[i * (b + 1) + k + b - i] = sum / l[k * (b + 1) + b];
+                l[band_index(b, i, k)] = sum / l[band_index(b, k, k)];
             }
         }
     }

@@ -121,9 +121,9 @@ fn add_row(window: &mut [f64], row: &[f64], sign: f64) {
     window.iter_mut().zip(row).for_each(|(s, v)| *s += sign * v);
 }
 
-/// sums[0][c] = Σ_{|j−c| ≤ r, 0 ≤ j < n} (x_j − shift), sums[1][c] the same of (x_j − shift)²
-/// and, when MASKED, sums[2][c] the number of those x_j that are not NaN (NaN adds nothing),
-/// by sliding sums (one addition per sum on the latency chain).
+/// sums[0][c] = Σ_{|j−c| ≤ r, 0 ≤ j < n} (x_j − shift), sums[1][c] the same of
+/// (x_j − shift)² and, when MASKED, sums[2][c] the number of those x_j that are not NaN (NaN
+/// adds nothing), by sliding sums (one addition per sum on the latency chain).
 fn row_box_sums<const MASKED: bool>(x: &[f64], shift: f64, r: usize, sums: [&mut [f64]; 3]) {
     let n = x.len();
     // (x_j − shift, observed) with a missing x_j as (0, 0)

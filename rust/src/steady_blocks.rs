@@ -15,18 +15,20 @@
 //! multiply-adds per position to correct the start of each segment, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
 //! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
-//! by segments. The recursion is bound by the throughput of its multiply-adds and memory
-//! operations, not by its chain through the newest block: a build without that chain ran as
-//! fast, and two chains side by side (the second half from zeros, corrected by the response
-//! to the first half's end) ran slower (README, "Block solves"); carrying the last K blocks
-//! in registers (no reload of a block stored a few steps before) gained ~10 % for (3,3).
-//! Solving two blocks per step from the blocks before them (halving the chain, one more
-//! block product per pair) did not pay either: no faster for (3,3), ~10 % for (4,4), within
-//! the noise of this machine. Nor did broadcasting each new block's components once and
-//! carrying the broadcasts (G shuffles per step instead of K·G; bit-identical results):
-//! (3,3) unchanged, (4,4) ~10 % slower (its 16 broadcast vectors spill). The (4,4) factors reach their steady interior only through the
-//! 1e-8 snap of `steady_band`. The positions before and after the block interior are
-//! substituted one at a time with the factor's own coefficients.
+//! by segments. What bounds the recursion is not settled (README, "Block solves"): each
+//! step accumulates its products in one serial chain, newest block last; a build meant to
+//! have no chain (the block K back instead of the newest) ran as fast, but it kept a chain
+//! of K·G + G multiply-adds through block j − K, about the same latency per step. Two
+//! chains side by side (the second half from zeros, corrected by the response to the first
+//! half's end) ran slower; carrying the last K blocks in registers (no reload of a block
+//! stored a few steps before) gained ~10 % for (3,3). Solving two blocks per step from the
+//! blocks before them (one more block product per pair) did not pay: no faster for (3,3),
+//! ~10 % for (4,4), within the noise of this machine. Nor did broadcasting each new block's
+//! components once and carrying the broadcasts (G shuffles per step instead of K·G;
+//! bit-identical results): (3,3) unchanged, (4,4) ~10 % slower (its 16 broadcast vectors
+//! spill). The (4,4) factors reach their steady interior only through the 1e-8 snap of
+//! `steady_band`. The positions before and after the block interior are substituted one at
+//! a time with the factor's own coefficients.
 
 use std::ops::Range;
 
