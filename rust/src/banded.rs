@@ -2,8 +2,11 @@
 //! the quasi-optimal row filter (SPEC §2.3 generalised).
 
 use crate::error::{FieldError, Result};
+#[cfg(target_arch = "x86_64")]
+use crate::four_lanes::Avx2Lanes;
+use crate::four_lanes::FourLanes;
 use crate::steady_band::{FactorCoefficients, Steady};
-use crate::steady_blocks::{block_size, SteadyBlocks};
+use crate::steady_blocks::{block_size, Column, SteadyBlocks};
 use std::ops::Range;
 
 /// Runs `body` for r = 0, 1, …, B − 1 (B ≤ [`MAX_UNROLLED_RING`]) written out, not as a
@@ -281,6 +284,8 @@ pub(crate) fn fused_available() -> bool {
 /// `mul_add` would be a slow library call and Rust never contracts `a * b + c` by itself,
 /// so the kernels are generic over it and instantiated fused only under `target_feature`.
 pub(crate) trait Arith {
+    /// The four-lane vectors of the block recursions (`steady_blocks`), same arithmetic.
+    type FourLanes: FourLanes;
     /// c − a·b.
     fn sub_product(c: f64, a: f64, b: f64) -> f64;
     /// c + a·b.
@@ -295,6 +300,7 @@ pub(crate) struct Plain;
 pub(crate) struct Fused;
 
 impl Arith for Plain {
+    type FourLanes = Column;
     #[inline(always)]
     fn sub_product(c: f64, a: f64, b: f64) -> f64 {
         c - a * b
@@ -306,6 +312,10 @@ impl Arith for Plain {
 }
 
 impl Arith for Fused {
+    #[cfg(target_arch = "x86_64")]
+    type FourLanes = Avx2Lanes;
+    #[cfg(not(target_arch = "x86_64"))]
+    type FourLanes = Column;
     #[inline(always)]
     fn sub_product(c: f64, a: f64, b: f64) -> f64 {
         (-a).mul_add(b, c)

@@ -17,6 +17,7 @@ pub mod chi_squared;
 pub mod difference_gram;
 pub mod error;
 pub mod field_model;
+mod four_lanes;
 pub mod lag_products;
 pub mod local_moments;
 pub mod noise;

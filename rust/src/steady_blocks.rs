@@ -5,7 +5,7 @@
 //! Toeplitz with G × G blocks (G a multiple of the period: G = n, the state order, for the
 //! n = 3, 4 filters): the diagonal block C and the sub-diagonal blocks L_k, k = 1..K,
 //! K = ⌈B/G⌉, or one less when the farthest is zero (A block banded, as the row filters'
-//! systems are). Each substitution is then a recursion on G-vectors, one block per step:
+//! systems are). Each substitution is then a recursion on G-vectors:
 //!
 //!   forward   y_c = C⁻¹ x_c − Σ_k (C⁻¹ L_k) y_{c−k},
 //!   backward  u_c = C⁻ᵀ y_c − Σ_k (C⁻ᵀ L_kᵀ) u_{c+k},
@@ -15,19 +15,11 @@
 //! multiply-adds per position to correct the start of each segment, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
 //! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
-//! by segments. What bounds the recursion is not settled (README, "Block solves"): each
-//! step accumulates its products in one serial chain, newest block last; a build meant to
-//! have no chain (the block K back instead of the newest) ran as fast, but it kept a chain
-//! of K·G + G multiply-adds through block j − K, about the same latency per step. Two
-//! chains side by side (the second half from zeros, corrected by the response to the first
-//! half's end) ran slower; carrying the last K blocks in registers (no reload of a block
-//! stored a few steps before) gained ~10 % for (3,3). Solving two blocks per step from the
-//! blocks before them (one more block product per pair) did not pay: no faster for (3,3),
-//! ~10 % for (4,4), within the noise of this machine. Nor did broadcasting each new block's
-//! components once and carrying the broadcasts (G shuffles per step instead of K·G;
-//! bit-identical results): (3,3) unchanged, (4,4) ~10 % slower (its 16 broadcast vectors
-//! spill). The (4,4) factors reach their steady interior only through the 1e-8 snap of
-//! `steady_band`. The positions before and after the block interior are substituted one at
+//! by segments. Each step solves two blocks, the second by a look-ahead from the same
+//! blocks as the first (see [`recursion`]): one block per step was bound by the latency of
+//! its chain through the newest block. What else was tried, and what it measured: README,
+//! "Block solves". The (4,4) factors reach their steady interior only through the 1e-8
+//! snap of `steady_band`. The positions before and after the block interior are substituted one at
 //! a time with the factor's own coefficients.
 
 use std::ops::Range;
@@ -35,6 +27,7 @@ use std::ops::Range;
 use nalgebra::DMatrix;
 
 use crate::banded::{band_index, Arith};
+use crate::four_lanes::FourLanes;
 use crate::steady_band::Snap;
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
@@ -66,13 +59,42 @@ pub(crate) struct SteadyBlocks {
     backward: BlockSteps,
 }
 
-/// One substitution of a [`SteadyBlocks`] solve.
+/// One substitution of a [`SteadyBlocks`] solve: block j = S x_j − Σ_k T_k (block j ∓ k),
+/// and for the look-ahead (see [`recursion`]) the blocks of block j ± 1 from the blocks
+/// before block j: block j ± 1 = S x_{j±1} − (T_1 S) x_j − Σ_k U_k (block j ∓ k),
+/// U_k = T_{k+1} − T_1 T_k (T_{K+1} = 0).
 #[derive(Debug, Clone, PartialEq)]
 struct BlockSteps {
-    /// C⁻¹ (forward) or C⁻ᵀ (backward).
+    /// S: C⁻¹ (forward) or C⁻ᵀ (backward).
     scale: Block,
-    /// Per k = 1..=K: C⁻¹ L_k (forward) or C⁻ᵀ L_kᵀ (backward).
+    /// Per k = 1..=K, T_k: C⁻¹ L_k (forward) or C⁻ᵀ L_kᵀ (backward).
     terms: Vec<Block>,
+    /// T_1 S.
+    ahead: Block,
+    /// Per k = 1..=K: U_k.
+    paired: Vec<Block>,
+}
+
+impl BlockSteps {
+    /// The steps of scale S and terms T_k (k = 1..=K).
+    fn new(scale: DMatrix<f64>, terms: Vec<DMatrix<f64>>) -> BlockSteps {
+        let first = &terms[0];
+        let paired = (0..terms.len())
+            .map(|k| {
+                let product = first * &terms[k];
+                columns(&match terms.get(k + 1) {
+                    Some(next) => next - product,
+                    None => -product,
+                })
+            })
+            .collect();
+        BlockSteps {
+            ahead: columns(&(first * &scale)),
+            scale: columns(&scale),
+            terms: terms.iter().map(columns).collect(),
+            paired,
+        }
+    }
 }
 
 impl SteadyBlocks {
@@ -113,18 +135,15 @@ impl SteadyBlocks {
         if blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
             blocks.pop();
         }
-        // backward: C⁻ᵀ L_kᵀ = (L_k C⁻¹)ᵀ
-        let forward = BlockSteps {
-            terms: blocks.iter().map(|m| columns(&(&inverse * m))).collect(),
-            scale: columns(&inverse),
-        };
-        let backward = BlockSteps {
-            terms: blocks
-                .iter()
-                .map(|m| columns(&(m * &inverse).transpose()))
-                .collect(),
-            scale: columns(&inverse.transpose()),
-        };
+        let forward = BlockSteps::new(
+            inverse.clone(),
+            blocks.iter().map(|m| &inverse * m).collect(),
+        );
+        // C⁻ᵀ L_kᵀ = (L_k C⁻¹)ᵀ
+        let backward = BlockSteps::new(
+            inverse.transpose(),
+            blocks.iter().map(|m| (m * &inverse).transpose()).collect(),
+        );
         Some(SteadyBlocks {
             size: g,
             start,
@@ -198,16 +217,22 @@ impl SteadyBlocks {
     }
 
     /// One substitution over the interior of `padded` (see [`Self::padded_len`]): forward
-    /// from the K blocks before it, or backward from the K blocks after it.
+    /// from the K blocks before it, or backward from the K blocks after it, in the vectors
+    /// of `A` (AVX2 registers for `Fused`).
     #[inline(always)]
     pub(crate) fn substitute<A: Arith>(&self, padded: &mut [Column], backward: bool) {
         assert!(padded.len() == self.padded_len());
         macro_rules! run {
             ($g:literal, $k:literal) => {
-                if backward {
-                    recursion::<A, $g, $k, true>(&self.backward, padded)
-                } else {
-                    recursion::<A, $g, $k, false>(&self.forward, padded)
+                // SAFETY: `A::FourLanes` needs AVX2 and FMA only for `Fused`, which is
+                // instantiated only inside `BandCholesky::solve_fused` (run on CPUs that
+                // have them).
+                unsafe {
+                    if backward {
+                        recursion::<A::FourLanes, $g, $k, true>(&self.backward, padded)
+                    } else {
+                        recursion::<A::FourLanes, $g, $k, false>(&self.forward, padded)
+                    }
                 }
             };
         }
@@ -237,72 +262,143 @@ fn scatter_blocks<const G: usize>(padded: &[Column], x: &mut [f64]) {
     }
 }
 
-/// The recursion of one substitution over the padded blocks K.. len − K: block j becomes
-/// scale · block j − Σ_k terms_k · block (j ∓ k), backward when `REV`.
+/// The matrices of a [`BlockSteps`] as vectors, one per column.
+struct Loaded<V, const K: usize> {
+    scale: [V; 4],
+    terms: [[V; 4]; K],
+    ahead: [V; 4],
+    paired: [[V; 4]; K],
+}
+
+/// The recursion of one substitution over the padded blocks K.. len − K, backward when
+/// `REV`, two blocks per step: block j from the K blocks before it, and block j ± 1 from
+/// the same blocks (the look-ahead of [`BlockSteps`]), so that the two multiply-add chains
+/// of a step are independent and each waits on the previous step only through its last
+/// few products. One block at a time, the chain through the newest block made every step
+/// wait ~17 cycles (Zen 4) for 12 multiply-adds (B = 11). The last K blocks are carried in
+/// registers, their lanes broadcast by shuffles: broadcasting the older ones from the
+/// stored blocks instead ran ~40 % slower (B = 11).
+///
+/// # Safety
+/// The CPU has the instructions of `V` (see [`FourLanes`]).
 #[inline(always)]
-fn recursion<A: Arith, const G: usize, const K: usize, const REV: bool>(
+unsafe fn recursion<V: FourLanes, const G: usize, const K: usize, const REV: bool>(
     steps: &BlockSteps,
     padded: &mut [Column],
 ) {
-    let terms: &[Block; K] = steps.terms[..].try_into().unwrap();
     let len = padded.len();
-    assert!(len >= 2 * K);
-    // the last K blocks are carried in registers (newest first): no step reloads a block
-    // it has just stored
-    if REV {
-        let mut recent: [Column; K] = std::array::from_fn(|k| padded[len - K + k]);
-        for j in (K..len - K).rev() {
-            recent = step::<A, G, K>(steps, terms, padded, j, &recent);
-        }
-    } else {
-        let mut recent: [Column; K] = std::array::from_fn(|k| padded[K - 1 - k]);
-        for j in K..len - K {
-            recent = step::<A, G, K>(steps, terms, padded, j, &recent);
-        }
+    assert!(len >= 2 * K && K >= 2 && steps.terms.len() == K);
+    let m = Loaded::<V, K> {
+        scale: load_block(&steps.scale),
+        terms: std::array::from_fn(|k| load_block(&steps.terms[k])),
+        ahead: load_block(&steps.ahead),
+        paired: std::array::from_fn(|k| load_block(&steps.paired[k])),
+    };
+    // padded block of the recursion's i-th block
+    let at = |i: usize| if REV { len - 1 - i } else { i };
+    // the last K blocks, newest first
+    let mut recent: [V; K] = std::array::from_fn(|k| V::load(&padded[at(K - 1 - k)]));
+    let mut i = K;
+    while i + 1 < len - K {
+        let (first, second) = pair::<V, G, K>(&m, [&padded[at(i)], &padded[at(i + 1)]], &recent);
+        first.store(&mut padded[at(i)]);
+        second.store(&mut padded[at(i + 1)]);
+        let mut next = [second; K];
+        next[1] = first;
+        next[2..].copy_from_slice(&recent[..K - 2]);
+        recent = next;
+        i += 2;
+    }
+    if i < len - K {
+        single::<V, G, K>(&m, &padded[at(i)], &recent).store(&mut padded[at(i)]);
     }
 }
 
-/// Block j of a [`recursion`] from the K blocks before it in the recursion's order (newest
-/// first); returns them with block j in front (a function, not a closure: LLVM would not
-/// inline a closure into the caller's target features).
+/// Blocks i and i + 1 of a [`recursion`] (in its order) from x_i, x_{i+1} and the K blocks
+/// before block i (newest first). The older blocks' products are accumulated first; each
+/// block's product by the newest block is a chain of its own, subtracted last.
 #[inline(always)]
-fn step<A: Arith, const G: usize, const K: usize>(
-    steps: &BlockSteps,
-    terms: &[Block; K],
-    padded: &mut [Column],
-    j: usize,
-    recent: &[Column; K],
-) -> [Column; K] {
-    let mut acc = scaled::<A, G>(&steps.scale, &padded[j]);
+#[allow(clippy::needless_range_loop)] // as `product_of_splats`
+unsafe fn pair<V: FourLanes, const G: usize, const K: usize>(
+    m: &Loaded<V, K>,
+    [x, x_next]: [&Column; 2],
+    recent: &[V; K],
+) -> (V, V) {
+    let mut first = product_of_splats::<V, G>(&m.scale, x);
+    let mut second = product_of_splats::<V, G>(&m.scale, x_next);
+    for q in 0..G {
+        second = V::sub_product(second, m.ahead[q], V::splat(&x[q]));
+    }
+    for k in (1..K).rev() {
+        if G == 4 {
+            // each product its own short chain: shared by both chains, the 16 broadcasts
+            // of a step spilled (B = 19 ran 1.3x slower)
+            first = V::sub(first, product::<V, G>(&m.terms[k], recent[k]));
+            second = V::sub(second, product::<V, G>(&m.paired[k], recent[k]));
+            continue;
+        }
+        for q in 0..G {
+            let w = recent[k].lane(q);
+            first = V::sub_product(first, m.terms[k][q], w);
+            second = V::sub_product(second, m.paired[k][q], w);
+        }
+    }
+    (
+        V::sub(first, product::<V, G>(&m.terms[0], recent[0])),
+        V::sub(second, product::<V, G>(&m.paired[0], recent[0])),
+    )
+}
+
+/// Block i of a [`recursion`] alone (the last of an odd count), newest block last.
+#[inline(always)]
+unsafe fn single<V: FourLanes, const G: usize, const K: usize>(
+    m: &Loaded<V, K>,
+    x: &Column,
+    recent: &[V; K],
+) -> V {
+    let mut acc = product_of_splats::<V, G>(&m.scale, x);
     for k in (0..K).rev() {
-        subtract::<A, G>(&mut acc, &terms[k], &recent[k]);
-    }
-    padded[j] = acc;
-    let mut next = [acc; K];
-    next[1..].copy_from_slice(&recent[..K - 1]);
-    next
-}
-
-/// m v (m by columns), lane by lane.
-#[inline(always)]
-fn scaled<A: Arith, const G: usize>(m: &Block, v: &Column) -> Column {
-    let mut acc = [0.0; 4];
-    for (q, &vq) in v.iter().enumerate().take(G) {
-        for (a, &c) in acc.iter_mut().zip(&m[q]) {
-            *a = A::add_product(*a, c, vq);
+        for q in 0..G {
+            acc = V::sub_product(acc, m.terms[k][q], recent[k].lane(q));
         }
     }
     acc
 }
 
-/// acc −= m w (m by columns), lane by lane.
+/// The columns of a block as vectors.
+///
+/// # Safety
+/// As [`FourLanes::load`].
 #[inline(always)]
-fn subtract<A: Arith, const G: usize>(acc: &mut Column, m: &Block, w: &Column) {
-    for (q, &wq) in w.iter().enumerate().take(G) {
-        for (a, &c) in acc.iter_mut().zip(&m[q]) {
-            *a = A::sub_product(*a, c, wq);
-        }
+unsafe fn load_block<V: FourLanes>(m: &Block) -> [V; 4] {
+    [
+        V::load(&m[0]),
+        V::load(&m[1]),
+        V::load(&m[2]),
+        V::load(&m[3]),
+    ]
+}
+
+/// m x, x from memory (its lanes broadcast by loads).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // iterator adapters (`skip`) were not unrolled: 3.7x slower
+unsafe fn product_of_splats<V: FourLanes, const G: usize>(m: &[V; 4], x: &Column) -> V {
+    let mut acc = V::mul(m[0], V::splat(&x[0]));
+    for q in 1..G {
+        acc = V::add_product(acc, m[q], V::splat(&x[q]));
     }
+    acc
+}
+
+/// m v, v in a register (its lanes broadcast by shuffles).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // as `product_of_splats`
+fn product<V: FourLanes, const G: usize>(m: &[V; 4], v: V) -> V {
+    let mut acc = V::mul(m[0], v.lane(0));
+    for q in 1..G {
+        acc = V::add_product(acc, m[q], v.lane(q));
+    }
+    acc
 }
 
 /// The columns of the g × g matrix m, each padded to four lanes (as are the columns from g
@@ -317,4 +413,114 @@ fn columns(m: &DMatrix<f64>) -> Block {
             }
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::banded::{fused_available, Fused, Plain};
+
+    /// A plan over `count` interior blocks with random steps of small norm.
+    fn random_plan(g: usize, reach: usize, count: usize, seed: u64) -> SteadyBlocks {
+        let mut state = seed;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut random = |scale: f64| DMatrix::from_fn(g, g, |_, _| scale * next());
+        let steps = |random: &mut dyn FnMut(f64) -> DMatrix<f64>| {
+            let scale = random(1.0);
+            let terms = (0..reach).map(|_| random(0.5 / reach as f64)).collect();
+            BlockSteps::new(scale, terms)
+        };
+        let forward = steps(&mut random);
+        let backward = steps(&mut random);
+        let start = reach * g;
+        SteadyBlocks {
+            size: g,
+            start,
+            end: start + count * g,
+            forward,
+            backward,
+        }
+    }
+
+    /// Block j = S x_j − Σ_k T_k (block j ∓ k), one block at a time.
+    fn one_at_a_time(steps: &BlockSteps, g: usize, padded: &mut [Column], backward: bool) {
+        let (len, reach) = (padded.len(), steps.terms.len());
+        let at = |i: usize| if backward { len - 1 - i } else { i };
+        let times = |m: &Block, v: &Column| -> Column {
+            std::array::from_fn(|p| (0..g).map(|q| m[q][p] * v[q]).sum())
+        };
+        for i in reach..len - reach {
+            let mut block = times(&steps.scale, &padded[at(i)]);
+            for (k, term) in steps.terms.iter().enumerate() {
+                let product = times(term, &padded[at(i - 1 - k)]);
+                block = std::array::from_fn(|p| block[p] - product[p]);
+            }
+            padded[at(i)] = block;
+        }
+    }
+
+    #[target_feature(enable = "fma,avx2")]
+    unsafe fn substitute_fused(plan: &SteadyBlocks, padded: &mut [Column], backward: bool) {
+        plan.substitute::<Fused>(padded, backward)
+    }
+
+    #[test]
+    fn the_look_ahead_recursion_matches_one_block_at_a_time() {
+        // even and odd interior counts (the last block of an odd count is solved alone),
+        // both directions, plain and fused arithmetic
+        for (g, reach) in [(3usize, 3usize), (3, 4), (4, 4), (4, 5)] {
+            for count in [20usize, 21] {
+                let plan = random_plan(g, reach, count, (g * 10 + reach + count) as u64);
+                assert_eq!(plan.padded_len(), count + 2 * reach);
+                let x: Vec<Column> = (0..plan.padded_len())
+                    .map(|i| {
+                        std::array::from_fn(|p| {
+                            if p < g {
+                                (i as f64 + p as f64).sin()
+                            } else {
+                                0.0
+                            }
+                        })
+                    })
+                    .collect();
+                for backward in [false, true] {
+                    let steps = if backward {
+                        &plan.backward
+                    } else {
+                        &plan.forward
+                    };
+                    let mut expected = x.clone();
+                    one_at_a_time(steps, g, &mut expected, backward);
+                    let scale = expected
+                        .iter()
+                        .flatten()
+                        .fold(0.0f64, |m, v| m.max(v.abs()));
+                    let mut plain = x.clone();
+                    plan.substitute::<Plain>(&mut plain, backward);
+                    let mut results = vec![plain];
+                    if fused_available() {
+                        let mut fused = x.clone();
+                        // SAFETY: the CPU has FMA and AVX2.
+                        unsafe { substitute_fused(&plan, &mut fused, backward) };
+                        results.push(fused);
+                    }
+                    for result in results {
+                        let most = result
+                            .iter()
+                            .flatten()
+                            .zip(expected.iter().flatten())
+                            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                        assert!(most < 1e-13 * scale, "g {g} K {reach} n {count}: {most:e}");
+                        // the lanes from G on stay zero
+                        assert!(result.iter().all(|c| c[g..].iter().all(|&v| v == 0.0)));
+                    }
+                }
+            }
+        }
+    }
 }

@@ -1,0 +1,137 @@
+//! Four-lane vectors for the block recursions of `steady_blocks`: one lane per position of a
+//! block (G ≤ 4), so that a block product is G multiply-adds of a matrix column by one
+//! broadcast lane. Two implementations of one interface: plain arrays (portable, separate
+//! multiply and add) and AVX2 registers with fused multiply-adds (x86-64).
+//!
+//! The AVX2 kernels are written with intrinsics: with arrays, LLVM's vectoriser mixed the
+//! lanes of the two blocks of a look-ahead step into shuffled half-vectors, which ran
+//! slower than the plain recursion.
+
+use crate::steady_blocks::Column;
+
+/// A vector of four f64 lanes.
+///
+/// # Safety
+/// Values come only from [`FourLanes::load`] and [`FourLanes::splat`], whose callers
+/// guarantee the instructions the implementation needs; the arithmetic on values that
+/// exist is then safe.
+pub(crate) unsafe trait FourLanes: Copy {
+    /// The four lanes of `c`.
+    ///
+    /// # Safety
+    /// The CPU has the implementation's instructions (AVX2 and FMA for [`Avx2Lanes`]).
+    unsafe fn load(c: &Column) -> Self;
+    /// `x` in every lane.
+    ///
+    /// # Safety
+    /// As [`FourLanes::load`].
+    unsafe fn splat(x: &f64) -> Self;
+    /// Lane q (< 4) in every lane.
+    fn lane(self, q: usize) -> Self;
+    /// m ∘ v.
+    fn mul(m: Self, v: Self) -> Self;
+    /// c + m ∘ v.
+    fn add_product(c: Self, m: Self, v: Self) -> Self;
+    /// c − m ∘ v.
+    fn sub_product(c: Self, m: Self, v: Self) -> Self;
+    /// a − b.
+    fn sub(a: Self, b: Self) -> Self;
+    /// The lanes into `c`.
+    fn store(self, c: &mut Column);
+}
+
+// SAFETY: plain arrays need no special instructions.
+unsafe impl FourLanes for Column {
+    #[inline(always)]
+    unsafe fn load(c: &Column) -> Self {
+        *c
+    }
+    #[inline(always)]
+    unsafe fn splat(x: &f64) -> Self {
+        [*x; 4]
+    }
+    #[inline(always)]
+    fn lane(self, q: usize) -> Self {
+        [self[q]; 4]
+    }
+    #[inline(always)]
+    fn mul(m: Self, v: Self) -> Self {
+        std::array::from_fn(|p| m[p] * v[p])
+    }
+    #[inline(always)]
+    fn add_product(c: Self, m: Self, v: Self) -> Self {
+        std::array::from_fn(|p| c[p] + m[p] * v[p])
+    }
+    #[inline(always)]
+    fn sub_product(c: Self, m: Self, v: Self) -> Self {
+        std::array::from_fn(|p| c[p] - m[p] * v[p])
+    }
+    #[inline(always)]
+    fn sub(a: Self, b: Self) -> Self {
+        std::array::from_fn(|p| a[p] - b[p])
+    }
+    #[inline(always)]
+    fn store(self, c: &mut Column) {
+        *c = self;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx2::Avx2Lanes;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Column, FourLanes};
+    use std::arch::x86_64::*;
+
+    /// An AVX2 register; the multiply-adds are fused. Only instantiated inside
+    /// `BandCholesky::solve_fused` (compiled with AVX2 and FMA, run only on CPUs that have
+    /// them), into which every method is inlined.
+    #[derive(Clone, Copy)]
+    pub(crate) struct Avx2Lanes(__m256d);
+
+    // SAFETY (every `unsafe` block below): an `Avx2Lanes` exists only after `load` or
+    // `splat`, whose callers guarantee AVX2 and FMA.
+    unsafe impl FourLanes for Avx2Lanes {
+        #[inline(always)]
+        unsafe fn load(c: &Column) -> Self {
+            Avx2Lanes(_mm256_loadu_pd(c.as_ptr()))
+        }
+        #[inline(always)]
+        unsafe fn splat(x: &f64) -> Self {
+            Avx2Lanes(_mm256_broadcast_sd(x))
+        }
+        #[inline(always)]
+        fn lane(self, q: usize) -> Self {
+            let v = self.0;
+            Avx2Lanes(unsafe {
+                match q {
+                    0 => _mm256_broadcastsd_pd(_mm256_castpd256_pd128(v)),
+                    1 => _mm256_permute4x64_pd::<0x55>(v),
+                    2 => _mm256_permute4x64_pd::<0xAA>(v),
+                    _ => _mm256_permute4x64_pd::<0xFF>(v),
+                }
+            })
+        }
+        #[inline(always)]
+        fn mul(m: Self, v: Self) -> Self {
+            Avx2Lanes(unsafe { _mm256_mul_pd(m.0, v.0) })
+        }
+        #[inline(always)]
+        fn add_product(c: Self, m: Self, v: Self) -> Self {
+            Avx2Lanes(unsafe { _mm256_fmadd_pd(m.0, v.0, c.0) })
+        }
+        #[inline(always)]
+        fn sub_product(c: Self, m: Self, v: Self) -> Self {
+            Avx2Lanes(unsafe { _mm256_fnmadd_pd(m.0, v.0, c.0) })
+        }
+        #[inline(always)]
+        fn sub(a: Self, b: Self) -> Self {
+            Avx2Lanes(unsafe { _mm256_sub_pd(a.0, b.0) })
+        }
+        #[inline(always)]
+        fn store(self, c: &mut Column) {
+            unsafe { _mm256_storeu_pd(c.as_mut_ptr(), self.0) }
+        }
+    }
+}
