@@ -15,12 +15,12 @@
 //! multiply-adds per position to correct the start of each segment, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
 //! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
-//! by segments. Each step solves two blocks, the second by a look-ahead from the same
-//! blocks as the first (see [`recursion`]): one block per step was bound by the latency of
-//! its chain through the newest block. What else was tried, and what it measured: README,
-//! "Block solves". The (4,4) factors reach their steady interior only through the 1e-8
-//! snap of `steady_band`. The positions before and after the block interior are substituted one at
-//! a time with the factor's own coefficients.
+//! by segments (with two blocks per step too). Each step solves two blocks, the second by a
+//! look-ahead from the same blocks as the first (see [`recursion`]): one block per step was
+//! bound by the latency of its chain through the newest block. What else was tried, and
+//! what it measured: README, "Block solves". The (4,4) factors reach their steady interior
+//! only through the 1e-8 snap of `steady_band`. The positions before and after the block
+//! interior are substituted one at a time with the factor's own coefficients.
 
 use std::ops::Range;
 
