@@ -169,12 +169,14 @@ fn row_box_sums<const MASKED: bool>(x: &[f64], shift: f64, r: usize, sums: [&mut
 
 /// The mean of the pixels that are not NaN (0 if none).
 fn observed_mean(x: &[f64]) -> f64 {
-    let observed = x.iter().filter(|v| !v.is_nan());
-    let count = observed.clone().count();
+    let (total, count) = x
+        .iter()
+        .filter(|v| !v.is_nan())
+        .fold((0.0, 0usize), |(t, n), v| (t + v, n + 1));
     if count == 0 {
         return 0.0;
     }
-    observed.sum::<f64>() / count as f64
+    total / count as f64
 }
 
 /// Σ x with LANES independent accumulators (a single one is a chain of additions).

@@ -419,24 +419,20 @@ fn columns(m: &DMatrix<f64>) -> Block {
 mod tests {
     use super::*;
     use crate::banded::{fused_available, Fused, Plain};
+    use rand::{Rng, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
 
     /// A plan over `count` interior blocks with random steps of small norm.
     fn random_plan(g: usize, reach: usize, count: usize, seed: u64) -> SteadyBlocks {
-        let mut state = seed;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let mut random = |scale: f64| DMatrix::from_fn(g, g, |_, _| scale * next());
-        let steps = |random: &mut dyn FnMut(f64) -> DMatrix<f64>| {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut steps = || {
+            let mut random =
+                |scale: f64| DMatrix::from_fn(g, g, |_, _| scale * (rng.random::<f64>() - 0.5));
             let scale = random(1.0);
             let terms = (0..reach).map(|_| random(0.5 / reach as f64)).collect();
             BlockSteps::new(scale, terms)
         };
-        let forward = steps(&mut random);
-        let backward = steps(&mut random);
+        let (forward, backward) = (steps(), steps());
         let start = reach * g;
         SteadyBlocks {
             size: g,
