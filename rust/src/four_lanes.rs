@@ -36,8 +36,8 @@ pub(crate) unsafe trait FourLanes: Copy {
     fn sub_product(c: Self, m: Self, v: Self) -> Self;
     /// a − b.
     fn sub(a: Self, b: Self) -> Self;
-    /// The lanes into `c`.
-    fn store(self, c: &mut Column);
+    /// Lanes 0..G (G ≤ 4) into `out`.
+    fn store_lanes<const G: usize>(self, out: &mut [f64; G]);
 }
 
 // SAFETY: plain arrays need no special instructions.
@@ -71,8 +71,8 @@ unsafe impl FourLanes for Column {
         std::array::from_fn(|p| a[p] - b[p])
     }
     #[inline(always)]
-    fn store(self, c: &mut Column) {
-        *c = self;
+    fn store_lanes<const G: usize>(self, out: &mut [f64; G]) {
+        out.copy_from_slice(&self[..G]);
     }
 }
 
@@ -130,8 +130,23 @@ mod avx2 {
             Avx2Lanes(unsafe { _mm256_sub_pd(a.0, b.0) })
         }
         #[inline(always)]
-        fn store(self, c: &mut Column) {
-            unsafe { _mm256_storeu_pd(c.as_mut_ptr(), self.0) }
+        fn store_lanes<const G: usize>(self, out: &mut [f64; G]) {
+            let (v, to) = (self.0, out.as_mut_ptr());
+            // each arm writes exactly G lanes
+            unsafe {
+                match G {
+                    4 => _mm256_storeu_pd(to, v),
+                    3 => {
+                        _mm_storeu_pd(to, _mm256_castpd256_pd128(v));
+                        _mm_store_sd(to.add(2), _mm256_extractf128_pd::<1>(v));
+                    }
+                    _ => {
+                        let mut all = [0.0; 4];
+                        _mm256_storeu_pd(all.as_mut_ptr(), v);
+                        out.copy_from_slice(&all[..G]);
+                    }
+                }
+            }
         }
     }
 }

@@ -169,6 +169,26 @@ fn read_block<const N: usize, const K: usize>(x: &[f64; K], h: &[f64; 4], out: &
     }
 }
 
+/// Asks the caches for `row` (a hint: no effect on results). The passes read each image
+/// row once, straight from memory, in a burst between two row solves, when the hardware
+/// prefetcher has stopped; fetched during the previous row's solve, the prediction pass
+/// waits less (2048², criterion: (1,1) causal +12 %, (2,2) +6 %, (3,3) and (4,4) within
+/// noise).
+#[inline(always)]
+pub(crate) fn prefetch(row: &[f64]) {
+    #[cfg(target_arch = "x86_64")]
+    for line in row.chunks(8) {
+        // SAFETY: a prefetch only reads an address of `row`; it cannot fault.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T1 }>(
+                line.as_ptr().cast(),
+            )
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = row;
+}
+
 /// Prediction and innovation: state_ℓ ← S state_ℓ, gain_in_ℓ = ((z_ℓ − state_ℓ[0]) r_ℓ, 0, …)
 /// (the innovation enters through state row 0 only). False when a pixel of the row is NaN
 /// or infinite (with nominal precisions only, see `PixelPrecision::checks`).

@@ -744,8 +744,13 @@ impl ScalarRowFilter {
         let mut gain_in = vec![0.0; size];
         // A_t x = rhs: the plan's factor, or this row's weighted system
         let mut weighted = weights.map(|all| WeightedRows::new(self, plan, z, all));
-        let mut solve = |t: usize, x: &mut [f64]| match weighted.as_mut() {
+        // `innovation`: x is zero outside each column's component 0 (a prediction row)
+        let mut solve = |t: usize, x: &mut [f64], innovation: bool| match weighted.as_mut() {
             Some(rows) => rows.solve(t, x),
+            None if innovation => {
+                plan.factor(t).solve_observed_in_place(x, n);
+                Ok(())
+            }
             None => {
                 plan.factor(t).solve_in_place(x);
                 Ok(())
@@ -778,13 +783,17 @@ impl ScalarRowFilter {
                     }
                 }
                 state.copy_from_slice(&info);
-                solve(t, &mut state)?;
+                solve(t, &mut state, false)?;
                 self.readout(&state, observed(t), out_row);
             } else {
                 if !self.predict(&mut state, row, &mut gain_in, row_weights) {
                     return Err(non_finite());
                 }
-                solve(t, &mut gain_in)?;
+                if t < height {
+                    columns::prefetch(&z[t * w..(t + 1) * w]);
+                    weights.inspect(|r| columns::prefetch(&r[t * w..(t + 1) * w]));
+                }
+                solve(t, &mut gain_in, true)?;
                 let residual_of = smooth.then_some((row, row_weights));
                 self.correct(&gain_in, &mut state, residual_of, out_row);
             }
@@ -806,7 +815,7 @@ impl ScalarRowFilter {
         let rts_first = if height > n { first } else { height + 1 };
         for t in (rts_first..=height).rev() {
             if t < height {
-                solve(t, &mut delta)?;
+                solve(t, &mut delta, false)?;
             }
             let rts = RtsRow {
                 filtered: &filtered[(t - 1) * size..t * size],

@@ -395,6 +395,17 @@ mod tests {
                     let mut back = vec![0.0; n];
                     a.mul_vec(&x, &mut back);
                     assert!(max_difference(&back, &rhs) < 10.0 * STEADY_TOLERANCES[0]);
+                    // a right-hand side observed at the first position of every block (the
+                    // row filters' innovations; blocks of g: the forward recursion skips
+                    // the zeros): the same solution
+                    assert_eq!(plan.size(), g);
+                    let observed: Vec<f64> = (0..n)
+                        .map(|i| if i % g == 0 { rhs[i] } else { 0.0 })
+                        .collect();
+                    let (mut dense, mut sparse) = (observed.clone(), observed);
+                    factor.solve_in_place(&mut dense);
+                    factor.solve_observed_in_place(&mut sparse, g);
+                    assert_eq!(dense, sparse, "b {b} p {period}");
                 }
             }
         }

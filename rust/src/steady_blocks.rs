@@ -26,7 +26,7 @@ use std::ops::Range;
 
 use nalgebra::DMatrix;
 
-use crate::banded::{band_index, Arith};
+use crate::banded::{band_index, Arith, Rhs};
 use crate::four_lanes::FourLanes;
 use crate::steady_band::Snap;
 
@@ -158,80 +158,39 @@ impl SteadyBlocks {
         self.forward.terms.len()
     }
 
-    /// The length of the padded copy of x the substitutions run on: the blocks of
-    /// [start − K·G, end + K·G), one vector each.
-    pub(crate) fn padded_len(&self) -> usize {
-        (self.end - self.start) / self.size + 2 * self.reach()
+    /// The positions the recursions read and write: the interior [start, end) and the K
+    /// blocks on either side of it, from which the forward and backward recursions start.
+    pub(crate) fn span(&self) -> Range<usize> {
+        let reach = self.reach() * self.size;
+        self.start - reach..self.end + reach
     }
 
-    /// The positions of x held by the padded blocks `blocks` (see [`Self::padded_len`]).
-    fn positions(&self, blocks: Range<usize>) -> Range<usize> {
-        let first = self.start - self.reach() * self.size;
-        first + blocks.start * self.size..first + blocks.end * self.size
+    /// G, the block size.
+    pub(crate) fn size(&self) -> usize {
+        self.size
     }
 
-    /// The padded blocks of the interior.
-    pub(crate) fn interior(&self) -> Range<usize> {
-        self.reach()..self.padded_len() - self.reach()
-    }
-
-    /// The last padded blocks of the interior that hold its last b positions (the window
-    /// of the one-position substitution after it).
-    pub(crate) fn last(&self, b: usize) -> Range<usize> {
-        let interior = self.interior();
-        interior.end - b.div_ceil(self.size)..interior.end
-    }
-
-    /// The K padded blocks before the interior (the forward recursion's start).
-    pub(crate) fn before(&self) -> Range<usize> {
-        0..self.reach()
-    }
-
-    /// The K padded blocks after the interior (the backward recursion's start).
-    pub(crate) fn after(&self) -> Range<usize> {
-        self.padded_len() - self.reach()..self.padded_len()
-    }
-
-    /// Copies x into the padded blocks `blocks`.
+    /// One substitution of x over the interior, in place: forward from the K blocks before
+    /// it, or backward from the K blocks after it (x holds them solved), in the vectors of
+    /// `A` (AVX2 registers for `Fused`). `rhs`: what x holds over the interior (the
+    /// backward substitution's is the forward one's dense result).
     #[inline(always)]
-    pub(crate) fn gather(&self, x: &[f64], padded: &mut [Column], blocks: Range<usize>) {
-        let from = &x[self.positions(blocks.clone())];
-        let to = &mut padded[blocks];
-        match self.size {
-            3 => gather_blocks::<3>(from, to),
-            4 => gather_blocks::<4>(from, to),
-            _ => unreachable!("blocks of 3 or 4"),
-        }
-    }
-
-    /// Copies the padded blocks `blocks` back to x.
-    #[inline(always)]
-    pub(crate) fn scatter(&self, padded: &[Column], x: &mut [f64], blocks: Range<usize>) {
-        let to = &mut x[self.positions(blocks.clone())];
-        let from = &padded[blocks];
-        match self.size {
-            3 => scatter_blocks::<3>(from, to),
-            4 => scatter_blocks::<4>(from, to),
-            _ => unreachable!("blocks of 3 or 4"),
-        }
-    }
-
-    /// One substitution over the interior of `padded` (see [`Self::padded_len`]): forward
-    /// from the K blocks before it, or backward from the K blocks after it, in the vectors
-    /// of `A` (AVX2 registers for `Fused`).
-    #[inline(always)]
-    pub(crate) fn substitute<A: Arith>(&self, padded: &mut [Column], backward: bool) {
-        assert!(padded.len() == self.padded_len());
+    pub(crate) fn substitute<A: Arith>(&self, x: &mut [f64], backward: bool, rhs: Rhs) {
+        let x = &mut x[self.span()];
         macro_rules! run {
             ($g:literal, $k:literal) => {
                 // SAFETY: `A::FourLanes` needs AVX2 and FMA only for `Fused`, which is
                 // instantiated only inside `BandCholesky::solve_fused` (run on CPUs that
                 // have them).
                 unsafe {
-                    if backward {
-                        recursion::<A::FourLanes, $g, $k, true>(&self.backward, padded)
-                    } else {
-                        recursion::<A::FourLanes, $g, $k, false>(&self.forward, padded)
+                    match (backward, rhs) {
+                        (true, _) => recursion::<A::FourLanes, $g, $k, $g, true>(&self.backward, x),
+                        (false, Rhs::Dense) => {
+                            recursion::<A::FourLanes, $g, $k, $g, false>(&self.forward, x)
+                        }
+                        (false, Rhs::FirstOfBlock) => {
+                            recursion::<A::FourLanes, $g, $k, 1, false>(&self.forward, x)
+                        }
                     }
                 }
             };
@@ -246,22 +205,6 @@ impl SteadyBlocks {
     }
 }
 
-/// x (whole blocks of G) into padded blocks, the lanes from G on zero.
-#[inline(always)]
-fn gather_blocks<const G: usize>(x: &[f64], padded: &mut [Column]) {
-    for (block, v) in padded.iter_mut().zip(x.chunks_exact(G)) {
-        *block = std::array::from_fn(|p| if p < G { v[p] } else { 0.0 });
-    }
-}
-
-/// Padded blocks back to x (whole blocks of G).
-#[inline(always)]
-fn scatter_blocks<const G: usize>(padded: &[Column], x: &mut [f64]) {
-    for (block, v) in padded.iter().zip(x.chunks_exact_mut(G)) {
-        v.copy_from_slice(&block[..G]);
-    }
-}
-
 /// The matrices of a [`BlockSteps`] as vectors, one per column.
 struct Loaded<V, const K: usize> {
     scale: [V; 4],
@@ -270,39 +213,52 @@ struct Loaded<V, const K: usize> {
     paired: [[V; 4]; K],
 }
 
-/// The recursion of one substitution over the padded blocks K.. len − K, backward when
-/// `REV`, two blocks per step: block j from the K blocks before it, and block j ± 1 from
-/// the same blocks (the look-ahead of [`BlockSteps`]), so that the two multiply-add chains
-/// of a step are independent and each waits on the previous step only through its last
-/// few products. One block at a time, the chain through the newest block made every step
-/// wait ~17 cycles (Zen 4) for 12 multiply-adds (B = 11). The last K blocks are carried in
+/// The recursion of one substitution over x (whole blocks of G positions, the interior
+/// and the K blocks on either side of it), in place: the blocks K.. len − K, backward when
+/// `REV`, two per step: block j from the K blocks before it, and block j ± 1 from the
+/// same blocks (the look-ahead of [`BlockSteps`]), so that the two multiply-add chains of
+/// a step are independent and each waits on the previous step only through its last few
+/// products. One block at a time, the chain through the newest block made every step wait
+/// ~17 cycles (Zen 4) for 12 multiply-adds (B = 11). The last K blocks are carried in
 /// registers, their lanes broadcast by shuffles: broadcasting the older ones from the
-/// stored blocks instead ran ~40 % slower (B = 11).
+/// stored blocks instead ran ~40 % slower (B = 11). The blocks are read and written in x
+/// itself: copying the interior to and from a padded vector per block took ~14 % of the
+/// B = 11 solve.
 ///
 /// # Safety
 /// The CPU has the instructions of `V` (see [`FourLanes`]).
 #[inline(always)]
-unsafe fn recursion<V: FourLanes, const G: usize, const K: usize, const REV: bool>(
+unsafe fn recursion<
+    V: FourLanes,
+    const G: usize,
+    const K: usize,
+    const IN: usize,
+    const REV: bool,
+>(
     steps: &BlockSteps,
-    padded: &mut [Column],
+    x: &mut [f64],
 ) {
-    let len = padded.len();
-    assert!(len >= 2 * K && K >= 2 && steps.terms.len() == K);
+    let len = x.len() / G;
+    assert!(x.len() == len * G && len >= 2 * K && K >= 2 && steps.terms.len() == K);
     let m = Loaded::<V, K> {
         scale: load_block(&steps.scale),
         terms: std::array::from_fn(|k| load_block(&steps.terms[k])),
         ahead: load_block(&steps.ahead),
         paired: std::array::from_fn(|k| load_block(&steps.paired[k])),
     };
-    // padded block of the recursion's i-th block
-    let at = |i: usize| if REV { len - 1 - i } else { i };
+    // first position of the recursion's i-th block
+    let at = |i: usize| G * if REV { len - 1 - i } else { i };
     // the last K blocks, newest first
-    let mut recent: [V; K] = std::array::from_fn(|k| V::load(&padded[at(K - 1 - k)]));
+    let mut recent: [V; K] = std::array::from_fn(|k| {
+        let block = block::<G>(x, at(K - 1 - k));
+        V::load(&std::array::from_fn(|p| if p < G { block[p] } else { 0.0 }))
+    });
     let mut i = K;
     while i + 1 < len - K {
-        let (first, second) = pair::<V, G, K>(&m, [&padded[at(i)], &padded[at(i + 1)]], &recent);
-        first.store(&mut padded[at(i)]);
-        second.store(&mut padded[at(i + 1)]);
+        let (first, second) =
+            pair::<V, G, K, IN>(&m, [block(x, at(i)), block(x, at(i + 1))], &recent);
+        first.store_lanes::<G>(block_mut(x, at(i)));
+        second.store_lanes::<G>(block_mut(x, at(i + 1)));
         let mut next = [second; K];
         next[1] = first;
         next[2..].copy_from_slice(&recent[..K - 2]);
@@ -310,8 +266,20 @@ unsafe fn recursion<V: FourLanes, const G: usize, const K: usize, const REV: boo
         i += 2;
     }
     if i < len - K {
-        single::<V, G, K>(&m, &padded[at(i)], &recent).store(&mut padded[at(i)]);
+        single::<V, G, K, IN>(&m, block(x, at(i)), &recent).store_lanes::<G>(block_mut(x, at(i)));
     }
+}
+
+/// The block of x at position p.
+#[inline(always)]
+fn block<const G: usize>(x: &[f64], p: usize) -> &[f64; G] {
+    x[p..p + G].try_into().expect("G positions")
+}
+
+/// The block of x at position p, to write.
+#[inline(always)]
+fn block_mut<const G: usize>(x: &mut [f64], p: usize) -> &mut [f64; G] {
+    (&mut x[p..p + G]).try_into().expect("G positions")
 }
 
 /// Blocks i and i + 1 of a [`recursion`] (in its order) from x_i, x_{i+1} and the K blocks
@@ -319,14 +287,14 @@ unsafe fn recursion<V: FourLanes, const G: usize, const K: usize, const REV: boo
 /// block's product by the newest block is a chain of its own, subtracted last.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // as `product_of_splats`
-unsafe fn pair<V: FourLanes, const G: usize, const K: usize>(
+unsafe fn pair<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
     m: &Loaded<V, K>,
-    [x, x_next]: [&Column; 2],
+    [x, x_next]: [&[f64; G]; 2],
     recent: &[V; K],
 ) -> (V, V) {
-    let mut first = product_of_splats::<V, G>(&m.scale, x);
-    let mut second = product_of_splats::<V, G>(&m.scale, x_next);
-    for q in 0..G {
+    let mut first = product_of_splats::<V, IN>(&m.scale, x);
+    let mut second = product_of_splats::<V, IN>(&m.scale, x_next);
+    for q in 0..IN {
         second = V::sub_product(second, m.ahead[q], V::splat(&x[q]));
     }
     for k in (1..K).rev() {
@@ -351,12 +319,12 @@ unsafe fn pair<V: FourLanes, const G: usize, const K: usize>(
 
 /// Block i of a [`recursion`] alone (the last of an odd count), newest block last.
 #[inline(always)]
-unsafe fn single<V: FourLanes, const G: usize, const K: usize>(
+unsafe fn single<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
     m: &Loaded<V, K>,
-    x: &Column,
+    x: &[f64; G],
     recent: &[V; K],
 ) -> V {
-    let mut acc = product_of_splats::<V, G>(&m.scale, x);
+    let mut acc = product_of_splats::<V, IN>(&m.scale, x);
     for k in (0..K).rev() {
         for q in 0..G {
             acc = V::sub_product(acc, m.terms[k][q], recent[k].lane(q));
@@ -379,12 +347,12 @@ unsafe fn load_block<V: FourLanes>(m: &Block) -> [V; 4] {
     ]
 }
 
-/// m x, x from memory (its lanes broadcast by loads).
+/// m x, x from memory (its lanes broadcast by loads), x zero from lane IN on.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // iterator adapters (`skip`) were not unrolled: 3.7x slower
-unsafe fn product_of_splats<V: FourLanes, const G: usize>(m: &[V; 4], x: &Column) -> V {
+unsafe fn product_of_splats<V: FourLanes, const IN: usize>(m: &[V; 4], x: &[f64]) -> V {
     let mut acc = V::mul(m[0], V::splat(&x[0]));
-    for q in 1..G {
+    for q in 1..IN {
         acc = V::add_product(acc, m[q], V::splat(&x[q]));
     }
     acc
@@ -443,77 +411,83 @@ mod tests {
         }
     }
 
-    /// Block j = S x_j − Σ_k T_k (block j ∓ k), one block at a time.
-    fn one_at_a_time(steps: &BlockSteps, g: usize, padded: &mut [Column], backward: bool) {
-        let (len, reach) = (padded.len(), steps.terms.len());
-        let at = |i: usize| if backward { len - 1 - i } else { i };
-        let times = |m: &Block, v: &Column| -> Column {
-            std::array::from_fn(|p| (0..g).map(|q| m[q][p] * v[q]).sum())
+    /// Block j = S x_j − Σ_k T_k (block j ∓ k), one block at a time (x whole blocks of g).
+    fn one_at_a_time(steps: &BlockSteps, g: usize, x: &mut [f64], backward: bool) {
+        let (len, reach) = (x.len() / g, steps.terms.len());
+        let at = |i: usize| g * if backward { len - 1 - i } else { i };
+        let times = |m: &Block, v: &[f64]| -> Vec<f64> {
+            (0..g)
+                .map(|p| (0..g).map(|q| m[q][p] * v[q]).sum())
+                .collect()
         };
         for i in reach..len - reach {
-            let mut block = times(&steps.scale, &padded[at(i)]);
+            let mut block = times(&steps.scale, &x[at(i)..]);
             for (k, term) in steps.terms.iter().enumerate() {
-                let product = times(term, &padded[at(i - 1 - k)]);
-                block = std::array::from_fn(|p| block[p] - product[p]);
+                let product = times(term, &x[at(i - 1 - k)..]);
+                block.iter_mut().zip(product).for_each(|(b, p)| *b -= p);
             }
-            padded[at(i)] = block;
+            x[at(i)..at(i) + g].copy_from_slice(&block);
         }
     }
 
     #[target_feature(enable = "fma,avx2")]
-    unsafe fn substitute_fused(plan: &SteadyBlocks, padded: &mut [Column], backward: bool) {
-        plan.substitute::<Fused>(padded, backward)
+    unsafe fn substitute_fused(plan: &SteadyBlocks, x: &mut [f64], backward: bool, rhs: Rhs) {
+        plan.substitute::<Fused>(x, backward, rhs)
     }
 
     #[test]
     fn the_look_ahead_recursion_matches_one_block_at_a_time() {
         // even and odd interior counts (the last block of an odd count is solved alone),
-        // both directions, plain and fused arithmetic
+        // both directions, plain and fused arithmetic, and forward with x zero outside the
+        // first position of every block (`Rhs::FirstOfBlock`); the positions outside the
+        // span (one after it) are left alone
+        let cases = [
+            (false, Rhs::Dense),
+            (true, Rhs::Dense),
+            (false, Rhs::FirstOfBlock),
+        ];
         for (g, reach) in [(3usize, 3usize), (3, 4), (4, 4), (4, 5)] {
             for count in [20usize, 21] {
                 let plan = random_plan(g, reach, count, (g * 10 + reach + count) as u64);
-                assert_eq!(plan.padded_len(), count + 2 * reach);
-                let x: Vec<Column> = (0..plan.padded_len())
-                    .map(|i| {
-                        std::array::from_fn(|p| {
-                            if p < g {
-                                (i as f64 + p as f64).sin()
-                            } else {
+                assert_eq!(plan.span(), 0..(count + 2 * reach) * g);
+                let len = plan.span().end + 1;
+                for (backward, rhs) in cases {
+                    // (the blocks before the interior, the forward start, stay dense)
+                    let sparse = |i: usize| rhs == Rhs::FirstOfBlock && i >= plan.start;
+                    let x: Vec<f64> = (0..len)
+                        .map(|i| {
+                            if sparse(i) && i % g > 0 {
                                 0.0
+                            } else {
+                                (i as f64).sin()
                             }
                         })
-                    })
-                    .collect();
-                for backward in [false, true] {
+                        .collect();
                     let steps = if backward {
                         &plan.backward
                     } else {
                         &plan.forward
                     };
                     let mut expected = x.clone();
-                    one_at_a_time(steps, g, &mut expected, backward);
-                    let scale = expected
-                        .iter()
-                        .flatten()
-                        .fold(0.0f64, |m, v| m.max(v.abs()));
+                    one_at_a_time(steps, g, &mut expected[plan.span()], backward);
+                    let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                     let mut plain = x.clone();
-                    plan.substitute::<Plain>(&mut plain, backward);
+                    plan.substitute::<Plain>(&mut plain, backward, rhs);
                     let mut results = vec![plain];
                     if fused_available() {
                         let mut fused = x.clone();
                         // SAFETY: the CPU has FMA and AVX2.
-                        unsafe { substitute_fused(&plan, &mut fused, backward) };
+                        unsafe { substitute_fused(&plan, &mut fused, backward, rhs) };
                         results.push(fused);
                     }
                     for result in results {
                         let most = result
                             .iter()
-                            .flatten()
-                            .zip(expected.iter().flatten())
+                            .zip(&expected)
                             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                        assert!(most < 1e-13 * scale, "g {g} K {reach} n {count}: {most:e}");
-                        // the lanes from G on stay zero
-                        assert!(result.iter().all(|c| c[g..].iter().all(|&v| v == 0.0)));
+                        let case = format!("g {g} K {reach} n {count} {backward} {rhs:?}");
+                        assert!(most < 1e-13 * scale, "{case}: {most:e}");
+                        assert_eq!(result[len - 1], x[len - 1]);
                     }
                 }
             }
