@@ -147,13 +147,15 @@ impl<const N: usize> ColumnMatrix<N> {
     }
 }
 
+/// The K entries of v from `at`, as an array (also the block solves' blocks, `steady_blocks`).
 #[inline(always)]
-fn block<const K: usize>(v: &[f64], at: usize) -> &[f64; K] {
+pub(crate) fn block<const K: usize>(v: &[f64], at: usize) -> &[f64; K] {
     v[at..at + K].try_into().unwrap()
 }
 
+/// The K entries of v from `at`, to write.
 #[inline(always)]
-fn block_mut<const K: usize>(v: &mut [f64], at: usize) -> &mut [f64; K] {
+pub(crate) fn block_mut<const K: usize>(v: &mut [f64], at: usize) -> &mut [f64; K] {
     (&mut v[at..at + K]).try_into().unwrap()
 }
 

@@ -28,6 +28,7 @@ use nalgebra::DMatrix;
 
 use crate::banded::{band_index, Arith, Rhs};
 use crate::four_lanes::FourLanes;
+use crate::row_columns::{block, block_mut};
 use crate::steady_band::Snap;
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
@@ -268,18 +269,6 @@ unsafe fn recursion<
     if i < len - K {
         single::<V, G, K, IN>(&m, block(x, at(i)), &recent).store_lanes::<G>(block_mut(x, at(i)));
     }
-}
-
-/// The block of x at position p.
-#[inline(always)]
-fn block<const G: usize>(x: &[f64], p: usize) -> &[f64; G] {
-    x[p..p + G].try_into().expect("G positions")
-}
-
-/// The block of x at position p, to write.
-#[inline(always)]
-fn block_mut<const G: usize>(x: &mut [f64], p: usize) -> &mut [f64; G] {
-    (&mut x[p..p + G]).try_into().expect("G positions")
 }
 
 /// Blocks i and i + 1 of a [`recursion`] (in its order) from x_i, x_{i+1} and the K blocks
