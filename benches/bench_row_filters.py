@@ -387,7 +387,7 @@ def reference_speed(repeats: int, size: int = 256) -> list[str]:
         "| model | NumPy plan (ms) | NumPy filter (ms) | Rust first call incl. plan (ms) "
         "| Rust filter (ms) | × faster (filter) | × faster (plan + filter) |",
         "|---|---:|---:|---:|---:|---:|---:|",
-        *[reference_row(order, size, repeats) for order in ((1, 1), (2, 2))],
+        *[reference_row(order, size, repeats) for order in ((1, 1), (2, 2), (3, 3))],
         "",
         "NumPy: `reference.row_filters.scalar_filter_plan` once, then `scalar_row_filter(..., "
         "plan=plan)`; Rust: the first call builds the same plan, the later ones reuse it.",
@@ -520,6 +520,7 @@ def speed_section(cfg: Config) -> str:
     parts = [
         isolated(scalar_speed, cfg),
         isolated(reference_speed, cfg.repeats),
+        isolated(reference_speed, cfg.repeats, cfg.speed_size),
         isolated(vector_speed, cfg),
         sweep_speed(cfg),
         setup_speed(cfg),

@@ -1,0 +1,28 @@
+"""The main job (python -m kalmanfield.demo) runs end to end and its filtering numbers are
+those of SPEC §2: every filter far below the noise, the smoothed O(W) filter near the Wiener
+bound, the optimal filter's predicted error variance equal to its measured MSE."""
+
+from kalmanfield import demo
+
+
+def test_demo_runs_and_writes_its_files(tmp_path):
+    assert demo.main(["--out", str(tmp_path), "--size", "128", "--seed", "3"]) == 0
+    for name in ("eight_point_2x2.png", "filtering.png", "tracks.csv", "tracks.png"):
+        assert (tmp_path / name).stat().st_size > 0
+
+
+def test_filtering_numbers_are_ordered_as_the_theory_says(tmp_path):
+    mse = demo._filtering_demo(tmp_path, 256, seed=5)
+    noisy = mse["noisy image"]
+    optimal = mse["VectorRowFilter (optimal, causal)"]
+    quasi = mse["ScalarRowFilter (O(W) per row, causal)"]
+    smoothed = mse["ScalarRowFilter smooth=True"]
+    bound = mse["Wiener bound (no estimator does better)"]
+    predicted = mse["predicted (VectorRowFilter.error_variance)"]
+    # one 256² realisation: its MSEs scatter by a few % around their expectations
+    assert 0.8 < noisy < 1.2
+    assert abs(optimal / predicted - 1) < 0.15
+    assert abs(quasi / optimal - 1) < 0.05  # the same realisation: the loss is < 1 % here
+    assert smoothed < 0.7 * optimal  # the backward pass halves the causal error for (2,2)
+    assert abs(smoothed / bound - 1) < 0.15
+    assert mse["denoise (model and noise estimated)"] < 1.2 * smoothed
