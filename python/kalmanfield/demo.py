@@ -39,7 +39,7 @@ def _filtering_demo(out: Path, size: int, seed: int) -> dict[str, float]:
     """A (2,2) field (ρ = 0.9, σ_x² = 1) plus unit white noise, size², filtered by the row
     filters of SPEC §2; prints and returns each one's MSE against the field, the optimal
     filter's predicted mean error variance and the Wiener bound; writes filtering.png (field,
-    noisy image, smoothed estimate)."""
+    noisy image clipped to the field's range, smoothed estimate)."""
     model, noise_var = ARFieldModel([0.9, 0.9], [2, 2]), 1.0
     x = model.sample((size, size), seed=seed)
     z = x + np.random.default_rng(seed).normal(0.0, np.sqrt(noise_var), x.shape)
@@ -62,7 +62,8 @@ def _filtering_demo(out: Path, size: int, seed: int) -> dict[str, float]:
         mse[name] = float(np.mean((estimate - x) ** 2))
         print(f"  {name:44s} {mse[name]:.4f} ({elapsed * 1e3:.0f})")
         if run is runs["ScalarRowFilter smooth=True"]:
-            _save_png(out / "filtering.png", np.hstack([x, z, estimate]))
+            shown = np.clip(z, x.min(), x.max())  # the field's grey scale for all three
+            _save_png(out / "filtering.png", np.hstack([x, shown, estimate]))
     mse["predicted (VectorRowFilter.error_variance)"] = float(optimal.error_variance(size).mean())
     mse["Wiener bound (no estimator does better)"] = wiener_bound(model, noise_var, (size, size))
     for name in list(mse)[-2:]:
