@@ -54,9 +54,9 @@ class ScalarRowFilter(RowFilter):
         eigenbasis at all; it ignores the larger error near the row's ends — the README
         gives the loss).
     The per-row models are built on the first call for a given image height and cached.
-    With smooth=True the filter also keeps the RTS pass's store of filtered states between
-    calls (height × width × n_y float64 per thread that filtered a frame; allocating it
-    afresh cost a fifth of the smoothed run): it is freed with the filter.
+    With smooth=True the RTS pass needs nothing of the forward pass but the filtered rows
+    h · ŷ_t (written to the output) and the state after the start rows: no store of the
+    filtered states, so the working memory is a few rows whatever the height.
 
     Missing pixels and per-pixel noise: :meth:`filter` takes NaN pixels as missing
     observations and an optional per-pixel noise variance map; they enter the row update

@@ -11,7 +11,6 @@ pub mod axis_modes;
 pub mod band_ldl;
 pub mod banded;
 pub mod branching;
-mod buffer_pool;
 pub mod cascade;
 pub mod chi_squared;
 pub mod difference_gram;

@@ -65,8 +65,6 @@ pub(crate) use for_order;
 pub(crate) trait PixelPrecision: Copy {
     /// (z_ℓ, r_ℓ); a missing pixel's value may be NaN: it gives (0, 0), a term 0, not NaN · 0.
     fn pixel(self, row: &[f64], column: usize) -> (f64, f64);
-    /// r_ℓ alone.
-    fn at(self, column: usize) -> f64;
     /// The precisions of `columns` (indexed from 0 on), for a block.
     fn columns(self, columns: Range<usize>) -> Self;
     /// Whether the prediction checks the pixels for NaN and infinity (nominal precisions:
@@ -88,10 +86,6 @@ impl PixelPrecision for Nominal {
         (row[column], self.0)
     }
 
-    fn at(self, _column: usize) -> f64 {
-        self.0
-    }
-
     fn columns(self, _columns: Range<usize>) -> Self {
         self
     }
@@ -106,10 +100,6 @@ impl PixelPrecision for PerPixel<'_> {
     fn pixel(self, row: &[f64], column: usize) -> (f64, f64) {
         let r = self.0[column];
         (if r > 0.0 { row[column] } else { 0.0 }, r)
-    }
-
-    fn at(self, column: usize) -> f64 {
-        self.0[column]
     }
 
     fn columns(self, columns: Range<usize>) -> Self {
@@ -273,42 +263,6 @@ fn correct_block<const N: usize, const K: usize>(
     read_block::<N, K>(x, h, &mut out[at / N..]);
 }
 
-/// The correction followed by an RTS pass: target_ℓ += d_ℓ and out[ℓ] = r_ℓ (z_ℓ − h · target_ℓ),
-/// the filtered residual that `smooth` turns into the smoothed one (so that the RTS pass
-/// does not read the image again).
-#[inline(always)]
-pub(crate) fn correct_to_residual<const N: usize, const K: usize>(
-    d: &[f64],
-    target: &mut [f64],
-    h: &[f64; 4],
-    row: &[f64],
-    precision: impl PixelPrecision,
-    out: &mut [f64],
-) {
-    over_blocks!(target.len(), N, K, |at| residual_block(
-        at, d, target, h, row, precision, out
-    ));
-}
-
-#[inline(always)]
-fn residual_block<const N: usize, const K: usize>(
-    at: usize,
-    d: &[f64],
-    target: &mut [f64],
-    h: &[f64; 4],
-    row: &[f64],
-    precision: impl PixelPrecision,
-    out: &mut [f64],
-) {
-    correct_block::<N, K>(at, d, target, h, out);
-    let columns = at / N..at / N + K / N;
-    let (row, precision) = (&row[columns.clone()], precision.columns(columns.clone()));
-    for (c, o) in out[columns].iter_mut().enumerate() {
-        let (z, r) = precision.pixel(row, c);
-        *o = r * (z - *o);
-    }
-}
-
 /// out[ℓ] = h · state_ℓ.
 #[inline(always)]
 pub(crate) fn readout<const N: usize, const K: usize>(
@@ -329,21 +283,19 @@ fn readout_block<const N: usize, const K: usize>(
     read_block::<N, K>(block::<K>(state, at), h, &mut out[at / N..]);
 }
 
-/// One row t of the RTS pass: its filtered states, the solution δ_t of A_t δ_t = d_t (which
-/// becomes d_{t−1}), the smoothed states (ŷˢ_{t+1} in, ŷˢ_t out), d_t (carried over from the
-/// previous step; d_{t−1} out) and the image row (r_tℓ (z_tℓ − h · ŷ_tℓ) in, h · ŷˢ_tℓ out).
+/// One row of the RTS pass: δ_t on entry (overwritten by d_{t−1}), the carried d_t, the
+/// image row z_t, and `out`, the filtered estimate h · ŷ_t on entry, the smoothed one on exit.
 pub(crate) struct RtsRow<'a> {
-    pub filtered: &'a [f64],
     pub delta: &'a mut [f64],
-    pub smoothed: &'a mut [f64],
     pub carried: &'a mut [f64],
+    pub row: &'a [f64],
     pub out: &'a mut [f64],
 }
 
-/// ŷˢ_t = ŷ_t + δ_t, out = h · ŷˢ_t, and the next right-hand side
+/// out = h · ŷˢ_t = h · ŷ_t + h · δ_t, and the next right-hand side
 /// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t) = (I ⊗ Sᵀ) (d_t + e₀ r_t (z_t − h · ŷˢ_t)) into `carried`
-/// and `delta` (see `ScalarRowFilter::smooth_row`), with r_t (z_t − h · ŷˢ_t) = (the filtered
-/// residual in `out`) − r_t h · δ_t.
+/// and `delta` (see `ScalarRowFilter::smooth_row`). Only h · ŷ_t of the filtered state is
+/// read, so the forward pass keeps no store of its states.
 #[inline(always)]
 pub(crate) fn smooth<const N: usize, const K: usize>(
     s: &Small,
@@ -353,10 +305,9 @@ pub(crate) fn smooth<const N: usize, const K: usize>(
 ) {
     let st = ColumnMatrix::<N>::new(&s.transpose());
     let RtsRow {
-        filtered,
         delta,
-        smoothed,
         carried,
+        row,
         out,
     } = row;
     over_blocks!(carried.len(), N, K, |at| smooth_block(
@@ -365,10 +316,9 @@ pub(crate) fn smooth<const N: usize, const K: usize>(
         h,
         precision,
         RtsRow {
-            filtered,
             delta: &mut *delta,
-            smoothed: &mut *smoothed,
             carried: &mut *carried,
+            row,
             out: &mut *out,
         }
     ));
@@ -383,25 +333,23 @@ fn smooth_block<const N: usize, const K: usize>(
     row: RtsRow,
 ) {
     let columns = at / N..at / N + K / N;
-    let precision = precision.columns(columns.clone());
+    let (z, precision) = (
+        &row.row[columns.clone()],
+        precision.columns(columns.clone()),
+    );
     let delta = block_mut::<K>(row.delta, at);
-    let f = block::<K>(row.filtered, at);
-    let x = block_mut::<K>(row.smoothed, at);
-    *x = from_fn(|k| f[k] + delta[k]);
     let out = &mut row.out[columns];
     // the residual r (z − h · ŷˢ) of each column, at the entry of its component 0
-    let residual: [f64; K] = from_fn(|k| {
-        if k % N == 0 {
-            let mut hd = h[0] * delta[k];
-            for a in 1..N {
-                hd += h[a] * delta[k + a];
-            }
-            out[k / N] - precision.at(k / N) * hd
-        } else {
-            0.0
+    let mut residual = [0.0; K];
+    for (c, estimate) in out.iter_mut().enumerate() {
+        let mut hd = h[0] * delta[c * N];
+        for a in 1..N {
+            hd += h[a] * delta[c * N + a];
         }
-    });
-    read_block::<N, K>(x, h, out);
+        *estimate += hd;
+        let (zc, r) = precision.pixel(z, c);
+        residual[c * N] = r * (zc - *estimate);
+    }
     let c = block_mut::<K>(row.carried, at);
     *c = st.apply(&from_fn(|k| c[k] + residual[k]));
     *delta = *c;
@@ -462,45 +410,43 @@ mod tests {
             &mut gain_in,
             Nominal(2.0)
         ));
-        // correction (plain, and to the filtered residual) and readout
+        // correction and readout
         let d: Vec<f64> = (0..len).map(|i| (i as f64 * 0.37).cos()).collect();
         let (mut target, mut out) = (x0.clone(), vec![0.0; width]);
         correct::<N, K>(&d, &mut target, &h, &mut out);
-        let (mut again, mut residual) = (x0.clone(), vec![0.0; width]);
-        correct_to_residual::<N, K>(&d, &mut again, &h, &row, PerPixel(&weights), &mut residual);
         let mut read = vec![0.0; width];
         readout::<N, K>(&target, &h, &mut read);
-        assert_eq!(again, target);
         for l in 0..width {
             let v: Vec<f64> = (0..N).map(|a| x0[l * N + a] + d[l * N + a]).collect();
             let want: f64 = (0..N).map(|a| h[a] * v[a]).sum();
             assert_eq!(&target[l * N..(l + 1) * N], &v[..]);
             assert_eq!((out[l], read[l]), (want, want));
-            let z = if weights[l] > 0.0 { row[l] } else { 0.0 };
-            assert_eq!(residual[l], weights[l] * (z - want));
         }
-        // an RTS row: ŷˢ = ŷ + δ, its image row, d ← Sᵀ (d + e₀ (residual − r h · δ))
+        // an RTS row: out ← out + h · δ, d ← Sᵀ (d + e₀ r (z − out)); a missing pixel's
+        // value (NaN, weight 0) adds nothing
         let delta0: Vec<f64> = (0..len).map(|i| (i as f64 * 0.71).sin()).collect();
-        let (mut delta, mut smoothed, mut carried) = (delta0.clone(), vec![0.0; len], d.clone());
-        let mut image_row = residual.clone();
+        let (mut delta, mut carried) = (delta0.clone(), d.clone());
+        let mut image_row = out.clone();
+        let with_gaps: Vec<f64> = (0..width)
+            .map(|l| if weights[l] > 0.0 { row[l] } else { f64::NAN })
+            .collect();
         let rts = RtsRow {
-            filtered: &x0,
             delta: &mut delta,
-            smoothed: &mut smoothed,
             carried: &mut carried,
+            row: &with_gaps,
             out: &mut image_row,
         };
         smooth::<N, K>(&m, &h, PerPixel(&weights), rts);
         for l in 0..width {
             let col = l * N..(l + 1) * N;
-            let v: Vec<f64> = (0..N).map(|a| x0[l * N + a] + delta0[l * N + a]).collect();
-            assert_eq!(&smoothed[col.clone()], &v[..]);
             let hd: f64 = (0..N).map(|a| h[a] * delta0[l * N + a]).sum();
+            let estimate = out[l] + hd;
+            assert_eq!(image_row[l], estimate);
+            let z = if weights[l] > 0.0 { row[l] } else { 0.0 };
             let mut u = d[col.clone()].to_vec();
-            u[0] += residual[l] - weights[l] * hd;
+            u[0] += weights[l] * (z - estimate);
             let want = column_apply(&m.transpose(), &u);
             assert_eq!(&carried[col.clone()], &want[..], "N {N} column {l}");
-            assert_eq!(image_row[l], (0..N).map(|a| h[a] * v[a]).sum::<f64>());
         }
         assert_eq!(carried, delta);
     }

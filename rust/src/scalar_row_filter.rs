@@ -28,7 +28,6 @@
 use crate::axis_model::AxisModel;
 use crate::band_ldl::{BandLdlBatch, LANES};
 use crate::banded::{fused_available, BandCholesky, SymmetricBand};
-use crate::buffer_pool::BufferPool;
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
@@ -77,8 +76,6 @@ pub struct ScalarRowFilter {
     whitening: Small,
     transition: Small,
     plan: Mutex<Option<Arc<Plan>>>,
-    /// The RTS pass's stores of filtered states (height × W × n), kept between calls.
-    stores: BufferPool,
 }
 
 /// Per row: the model precision Λ_t and the factor of A_t (indices into the stores).
@@ -163,7 +160,6 @@ impl ScalarRowFilter {
             whitening,
             transition,
             plan: Mutex::new(None),
-            stores: BufferPool::default(),
         };
         if modes == ModeSet::Ends {
             filter.modes = filter.ends_modes(x, model.sigma())?;
@@ -598,26 +594,13 @@ impl ScalarRowFilter {
     }
 
     /// The filter's correction of a row after the start: state_ℓ += d_ℓ, and out[ℓ] = the
-    /// estimate h · state_ℓ (h = e₀: row 0 of L) or, when an RTS pass follows, the filtered
-    /// residual r_ℓ (z_ℓ − h · state_ℓ) that the RTS pass needs (`RtsRow`).
+    /// estimate h · state_ℓ (h = e₀: row 0 of L).
     #[inline(always)]
-    fn correct(
-        &self,
-        d: &[f64],
-        state: &mut [f64],
-        residual_of: Option<(&[f64], Option<&[f64]>)>,
-        out: &mut [f64],
-    ) {
+    fn correct(&self, d: &[f64], state: &mut [f64], out: &mut [f64]) {
         let h = self.readout_row(0);
-        for_order!(self.dynamics.order, |N, K| match residual_of {
-            None => columns::correct::<N, K>(d, state, &h, out),
-            Some((row, None)) => {
-                columns::correct_to_residual::<N, K>(d, state, &h, row, self.nominal(), out)
-            }
-            Some((row, Some(r))) => {
-                columns::correct_to_residual::<N, K>(d, state, &h, row, PerPixel(r), out)
-            }
-        })
+        for_order!(self.dynamics.order, |N, K| columns::correct::<N, K>(
+            d, state, &h, out
+        ))
     }
 
     /// row[ℓ] = h · state_ℓ with h = row `index` of L (the image row held in that state row).
@@ -629,16 +612,17 @@ impl ScalarRowFilter {
         ))
     }
 
-    /// One row t of the RTS pass (`row_columns::smooth`): ŷˢ_t = ŷ_t + δ_t, its image row,
-    /// and the right-hand side of row t − 1,
+    /// One row t > n of the RTS pass (`row_columns::smooth`): ŷˢ_t = ŷ_t + δ_t, its image row
+    /// h · ŷˢ_t = h · ŷ_t + h · δ_t (h · ŷ_t, the filtered row, is all the pass needs of the
+    /// forward pass: it is in `out`), and the right-hand side of row t − 1,
     /// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t), without a product by Λ_t: A_t = Λ_t + Hᵀ R⁻¹ H,
     /// and both the forward gain (A_t (ŷ_t − ŷ_e,t) = Hᵀ R⁻¹ (z_t − H ŷ_e,t)) and this step
     /// (A_t (ŷˢ_t − ŷ_t) = d_t) were solved with A_t's factor, so
     /// Λ_t (ŷˢ_t − ŷ_e,t) = d_t + Hᵀ R⁻¹ (z_t − H ŷˢ_t), H = e₀ per column (rows t > n).
     /// `weights`: row t's (None: nominal).
     #[inline(always)]
-    fn smooth_row(&self, index: usize, weights: Option<&[f64]>, row: RtsRow) {
-        let (s, h) = (&self.transition, self.readout_row(index));
+    fn smooth_row(&self, weights: Option<&[f64]>, row: RtsRow) {
+        let (s, h) = (&self.transition, self.readout_row(0));
         for_order!(self.dynamics.order, |N, K| match weights {
             None => columns::smooth::<N, K>(s, &h, self.nominal(), row),
             Some(r) => columns::smooth::<N, K>(s, &h, PerPixel(r), row),
@@ -693,12 +677,6 @@ impl ScalarRowFilter {
         height: usize,
         smooth: bool,
     ) -> Result<()> {
-        let size = if smooth {
-            height * self.width() * self.dynamics.order
-        } else {
-            0
-        };
-        let mut filtered = self.stores.take(size);
         let job = Job {
             plan,
             z,
@@ -707,28 +685,25 @@ impl ScalarRowFilter {
             smooth,
         };
         #[cfg(target_arch = "x86_64")]
-        let result = if fused_available() {
+        if fused_available() {
             // SAFETY: the CPU has FMA and AVX2.
-            unsafe { self.passes_avx2(job, out, &mut filtered) }
+            unsafe { self.passes_avx2(job, out) }
         } else {
-            self.passes(job, out, &mut filtered)
-        };
+            self.passes(job, out)
+        }
         #[cfg(not(target_arch = "x86_64"))]
-        let result = self.passes(job, out, &mut filtered);
-        self.stores.give(filtered);
-        result
+        self.passes(job, out)
     }
 
     /// `passes` compiled for AVX2 (the per-column loops run four columns per instruction).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "fma,avx2")]
-    unsafe fn passes_avx2(&self, job: Job, out: &mut [f64], filtered: &mut [f64]) -> Result<()> {
-        self.passes(job, out, filtered)
+    unsafe fn passes_avx2(&self, job: Job, out: &mut [f64]) -> Result<()> {
+        self.passes(job, out)
     }
 
-    /// `filtered`: the store of the filtered states (height × W × n entries when `smooth`).
     #[inline(always)]
-    fn passes(&self, job: Job, out: &mut [f64], filtered: &mut [f64]) -> Result<()> {
+    fn passes(&self, job: Job, out: &mut [f64]) -> Result<()> {
         crate::vector_state::clear_upper_state();
         let Job {
             plan,
@@ -742,6 +717,8 @@ impl ScalarRowFilter {
         let mut state = vec![0.0; size];
         let mut info = vec![0.0; size];
         let mut gain_in = vec![0.0; size];
+        // the state after the start rows (ŷ_n), from which the RTS pass reads them out
+        let mut start = if smooth { vec![0.0; size] } else { Vec::new() };
         // A_t x = rhs: the plan's factor, or this row's weighted system
         let mut weighted = weights.map(|all| WeightedRows::new(self, plan, z, all));
         // `innovation`: x is zero outside each column's component 0 (a prediction row)
@@ -794,40 +771,46 @@ impl ScalarRowFilter {
                     weights.inspect(|r| columns::prefetch(&r[t * w..(t + 1) * w]));
                 }
                 solve(t, &mut gain_in, true)?;
-                let residual_of = smooth.then_some((row, row_weights));
-                self.correct(&gain_in, &mut state, residual_of, out_row);
+                self.correct(&gain_in, &mut state, out_row);
             }
-            if smooth {
-                filtered[(t - 1) * size..t * size].copy_from_slice(&state);
+            if smooth && t == n.min(height) {
+                start.copy_from_slice(&state);
             }
         }
         if !smooth {
             return Ok(());
         }
         let first = n.min(height);
-        let mut smoothed = state;
         // d_t, carried from one step to the next; the solve turns `delta` from d_t into δ_t
         let mut carried = vec![0.0; size];
         let mut delta = vec![0.0; size];
         let row_of = |t: usize| (t - 1) * w..t * w;
-        // rows H (δ_H = 0, d_H = 0) down to n (its d_{n−1} is not used: the start rows' A_t
-        // are not Λ_t + Hᵀ R⁻¹ H, and their estimates are read off ŷˢ_n below)
-        let rts_first = if height > n { first } else { height + 1 };
-        for t in (rts_first..=height).rev() {
+        // rows H (δ_H = 0, d_H = 0) down to n + 1; then δ_n, whose ŷˢ_n = ŷ_n + δ_n gives the
+        // start rows 1..n (their A_t are not Λ_t + Hᵀ R⁻¹ H: ŷˢ_n is read off the state)
+        for t in (first + 1..=height).rev() {
             if t < height {
                 solve(t, &mut delta, false)?;
             }
+            if t > first + 1 {
+                columns::prefetch(&z[row_of(t - 1)]);
+                columns::prefetch(&out[row_of(t - 1)]);
+            }
             let rts = RtsRow {
-                filtered: &filtered[(t - 1) * size..t * size],
                 delta: &mut delta,
-                smoothed: &mut smoothed,
                 carried: &mut carried,
+                row: &z[row_of(t)],
                 out: &mut out[row_of(t)],
             };
-            self.smooth_row(observed(t), weights.map(|r| &r[row_of(t)]), rts);
+            self.smooth_row(weights.map(|r| &r[row_of(t)]), rts);
         }
-        for t in 1..first {
-            self.readout(&smoothed, observed(t), &mut out[(t - 1) * w..t * w]);
+        if height > first {
+            solve(first, &mut delta, false)?;
+            for (x, d) in start.iter_mut().zip(&delta) {
+                *x += d;
+            }
+        }
+        for t in 1..=first {
+            self.readout(&start, observed(t), &mut out[row_of(t)]);
         }
         Ok(())
     }
@@ -987,7 +970,7 @@ mod tests {
     }
 
     #[test]
-    fn a_reused_store_of_filtered_states_gives_the_fresh_filters_bits() {
+    fn a_reused_filter_gives_the_fresh_filters_bits() {
         let model = FieldModel::new(&[0.9, 0.7], &[2, 1], 1.0).unwrap();
         let w = 24usize;
         let image = |h: usize, phase: f64| -> Vec<f64> {
@@ -996,7 +979,7 @@ mod tests {
                 .collect()
         };
         let reused = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();
-        // a taller image first: the store handed to the second call is longer than it needs
+        // images of other heights in turn: a reused filter (its cached plan) changes nothing
         for (h, phase) in [(30usize, 0.0), (17, 1.0), (40, 2.0)] {
             let z = image(h, phase);
             let fresh = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();

@@ -604,7 +604,9 @@ def scalar_row_passes(
         means = list(filt)
         carried = np.zeros_like(state)  # d_{t+1} = A_{t+1} (ŷˢ_{t+1} − ŷ_{t+1})
         for t in range(height - 2, t0 - 1, -1):
-            # Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) = d_{t+1} + Hᵀ w (z_{t+1} − H ŷˢ_{t+1}) (module doc)
+            # Λ_{t+1} (ŷˢ_{t+1} − ŷ_e,t+1) = d_{t+1} + Hᵀ w (z_{t+1} − H ŷˢ_{t+1}) (module doc);
+            # only H ŷˢ_{t+1} = H ŷ_{t+1} + H δ_{t+1} enters, so the Rust pass keeps no
+            # filtered states but the filtered rows (and ŷ_n for the start rows)
             wk = weights[t + 1][:, None]
             resid = zb[t + 1] - means[t + 1].reshape(width, n, nb)[:, 0, :]
             lam_e = carried.reshape(width, n, nb).copy()
