@@ -292,14 +292,15 @@ pub(crate) struct RtsRow<'a> {
     pub out: &'a mut [f64],
 }
 
-/// out = h · ŷˢ_t = h · ŷ_t + h · δ_t, and the next right-hand side
+/// out = h · ŷˢ_t = h · ŷ_t + h₀ δ_t[0] (h = h₀ e₀ after the start: row 0 of the lower
+/// triangular L), and the next right-hand side
 /// d_{t−1} = (I ⊗ Sᵀ) Λ_t (ŷˢ_t − ŷ_e,t) = (I ⊗ Sᵀ) (d_t + e₀ r_t (z_t − h · ŷˢ_t)) into `carried`
 /// and `delta` (see `ScalarRowFilter::smooth_row`). Only h · ŷ_t of the filtered state is
 /// read, so the forward pass keeps no store of its states.
 #[inline(always)]
 pub(crate) fn smooth<const N: usize, const K: usize>(
     s: &Small,
-    h: &[f64; 4],
+    h0: f64,
     precision: impl PixelPrecision,
     row: RtsRow,
 ) {
@@ -313,7 +314,7 @@ pub(crate) fn smooth<const N: usize, const K: usize>(
     over_blocks!(carried.len(), N, K, |at| smooth_block(
         &st,
         at,
-        h,
+        h0,
         precision,
         RtsRow {
             delta: &mut *delta,
@@ -328,7 +329,7 @@ pub(crate) fn smooth<const N: usize, const K: usize>(
 fn smooth_block<const N: usize, const K: usize>(
     st: &ColumnMatrix<N>,
     at: usize,
-    h: &[f64; 4],
+    h0: f64,
     precision: impl PixelPrecision,
     row: RtsRow,
 ) {
@@ -339,20 +340,23 @@ fn smooth_block<const N: usize, const K: usize>(
     );
     let delta = block_mut::<K>(row.delta, at);
     let out = &mut row.out[columns];
-    // the residual r (z − h · ŷˢ) of each column, at the entry of its component 0
+    // the smoothed estimate of each column and its residual r (z − h₀ ŷˢ[0])
     let mut residual = [0.0; K];
     for (c, estimate) in out.iter_mut().enumerate() {
-        let mut hd = h[0] * delta[c * N];
-        for a in 1..N {
-            hd += h[a] * delta[c * N + a];
-        }
-        *estimate += hd;
+        *estimate += h0 * delta[c * N];
         let (zc, r) = precision.pixel(z, c);
-        residual[c * N] = r * (zc - *estimate);
+        residual[c] = r * (zc - *estimate);
     }
     let c = block_mut::<K>(row.carried, at);
-    *c = st.apply(&from_fn(|k| c[k] + residual[k]));
-    *delta = *c;
+    let next = st.apply(&from_fn(|k| {
+        if k % N == 0 {
+            c[k] + residual[k / N]
+        } else {
+            c[k]
+        }
+    }));
+    *c = next;
+    *delta = next;
 }
 
 #[cfg(test)]
@@ -422,7 +426,7 @@ mod tests {
             assert_eq!(&target[l * N..(l + 1) * N], &v[..]);
             assert_eq!((out[l], read[l]), (want, want));
         }
-        // an RTS row: out ← out + h · δ, d ← Sᵀ (d + e₀ r (z − out)); a missing pixel's
+        // an RTS row: out ← out + h₀ δ[0], d ← Sᵀ (d + e₀ r (z − out)); a missing pixel's
         // value (NaN, weight 0) adds nothing
         let delta0: Vec<f64> = (0..len).map(|i| (i as f64 * 0.71).sin()).collect();
         let (mut delta, mut carried) = (delta0.clone(), d.clone());
@@ -436,11 +440,11 @@ mod tests {
             row: &with_gaps,
             out: &mut image_row,
         };
-        smooth::<N, K>(&m, &h, PerPixel(&weights), rts);
+        let h0 = 1.3;
+        smooth::<N, K>(&m, h0, PerPixel(&weights), rts);
         for l in 0..width {
             let col = l * N..(l + 1) * N;
-            let hd: f64 = (0..N).map(|a| h[a] * delta0[l * N + a]).sum();
-            let estimate = out[l] + hd;
+            let estimate = out[l] + h0 * delta0[l * N];
             assert_eq!(image_row[l], estimate);
             let z = if weights[l] > 0.0 { row[l] } else { 0.0 };
             let mut u = d[col.clone()].to_vec();

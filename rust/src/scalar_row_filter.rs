@@ -622,10 +622,10 @@ impl ScalarRowFilter {
     /// `weights`: row t's (None: nominal).
     #[inline(always)]
     fn smooth_row(&self, weights: Option<&[f64]>, row: RtsRow) {
-        let (s, h) = (&self.transition, self.readout_row(0));
+        let (s, h0) = (&self.transition, self.lower[(0, 0)]);
         for_order!(self.dynamics.order, |N, K| match weights {
-            None => columns::smooth::<N, K>(s, &h, self.nominal(), row),
-            Some(r) => columns::smooth::<N, K>(s, &h, PerPixel(r), row),
+            None => columns::smooth::<N, K>(s, h0, self.nominal(), row),
+            Some(r) => columns::smooth::<N, K>(s, h0, PerPixel(r), row),
         })
     }
 
