@@ -734,10 +734,11 @@ impl ScalarRowFilter {
             }
         };
         let observed = |t: usize| n.saturating_sub(t);
+        let row_of = |t: usize| (t - 1) * w..t * w;
         for t in 1..=height {
-            let row = &z[(t - 1) * w..t * w];
-            let out_row = &mut out[(t - 1) * w..t * w];
-            let row_weights = weights.map(|r| &r[(t - 1) * w..t * w]);
+            let row = &z[row_of(t)];
+            let out_row = &mut out[row_of(t)];
+            let row_weights = weights.map(|r| &r[row_of(t)]);
             let non_finite = || {
                 FieldError::NonFinite(
                     "the images hold NaN or infinite pixels (the row filters need every pixel)"
@@ -784,7 +785,6 @@ impl ScalarRowFilter {
         // d_t, carried from one step to the next; the solve turns `delta` from d_t into δ_t
         let mut carried = vec![0.0; size];
         let mut delta = vec![0.0; size];
-        let row_of = |t: usize| (t - 1) * w..t * w;
         // rows H (δ_H = 0, d_H = 0) down to n + 1; then δ_n, whose ŷˢ_n = ŷ_n + δ_n gives the
         // start rows 1..n (their A_t are not Λ_t + Hᵀ R⁻¹ H: ŷˢ_n is read off the state)
         for t in (first + 1..=height).rev() {
