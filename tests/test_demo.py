@@ -2,6 +2,8 @@
 those of SPEC §2: every filter far below the noise, the smoothed O(W) filter near the Wiener
 bound, the optimal filter's predicted error variance equal to its measured MSE."""
 
+import pytest
+
 from kalmanfield import demo
 
 
@@ -9,6 +11,15 @@ def test_demo_runs_and_writes_its_files(tmp_path):
     assert demo.main(["--out", str(tmp_path), "--size", "128", "--seed", "3"]) == 0
     for name in ("eight_point_2x2.png", "filtering.png", "tracks.csv", "tracks.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+@pytest.mark.parametrize("size", ["0", "-3", "4", "x"])
+def test_a_bad_size_is_a_usage_error_not_a_traceback(tmp_path, size, capsys):
+    with pytest.raises(SystemExit) as stop:
+        demo.main(["--out", str(tmp_path), "--size", size])
+    assert stop.value.code == 2
+    assert "--size" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # nothing was written
 
 
 def test_filtering_numbers_are_ordered_as_the_theory_says(tmp_path):

@@ -153,10 +153,25 @@ def _plot_tracks(path: Path, frame: np.ndarray, tracks, truth: np.ndarray) -> No
     plt.close(fig)
 
 
+# The smallest --size: the filtering part identifies a model from the noisy image, which needs
+# a few rows and columns of lags (at 4² there is no positive correlation left to find).
+MIN_SIZE = 8
+
+
+def _size(text: str) -> int:
+    """--size: an integer of at least MIN_SIZE (argparse reports the ValueError's message)."""
+    size = int(text)
+    if size < MIN_SIZE:
+        raise argparse.ArgumentTypeError(f"must be at least {MIN_SIZE}, got {size}")
+    return size
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("demo_out"))
-    parser.add_argument("--size", type=int, default=1024)
+    parser.add_argument(
+        "--size", type=_size, default=1024, help=f"side of the simulated fields (≥ {MIN_SIZE})"
+    )
     parser.add_argument("--seed", type=int, default=2026)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
