@@ -71,6 +71,9 @@ fn frame(
     settings: &AdaptiveSettings,
     out: &mut [f64],
 ) -> Result<()> {
+    // a pool thread may hold dirty upper vector halves (see `vector_state`): the box moments
+    // and the normalisation below are baseline SSE2 code
+    crate::vector_state::clear_upper_state();
     let noise_var = settings.noise_var;
     // `out` holds μ, then x̂; `scale` the box variance, then σ
     let mut scale = vec![0.0; z.len()];
