@@ -159,7 +159,7 @@ MIN_SIZE = 8
 
 
 def _size(text: str) -> int:
-    """--size: an integer of at least MIN_SIZE (argparse reports the ValueError's message)."""
+    """--size: an integer of at least MIN_SIZE (argparse turns a bad one into a usage error)."""
     size = int(text)
     if size < MIN_SIZE:
         raise argparse.ArgumentTypeError(f"must be at least {MIN_SIZE}, got {size}")
