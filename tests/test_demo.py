@@ -13,13 +13,17 @@ def test_demo_runs_and_writes_its_files(tmp_path):
         assert (tmp_path / name).stat().st_size > 0
 
 
-@pytest.mark.parametrize("size", ["0", "-3", "4", "x"])
+@pytest.mark.parametrize("size", ["0", "-3", "4", "16", "x"])
 def test_a_bad_size_is_a_usage_error_not_a_traceback(tmp_path, size, capsys):
     with pytest.raises(SystemExit) as stop:
         demo.main(["--out", str(tmp_path), "--size", size])
     assert stop.value.code == 2
     assert "--size" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())  # nothing was written
+
+
+def test_the_smallest_size_runs(tmp_path):
+    assert demo.main(["--out", str(tmp_path), "--size", str(demo.MIN_SIZE), "--seed", "0"]) == 0
 
 
 def test_filtering_numbers_are_ordered_as_the_theory_says(tmp_path):
