@@ -7,6 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import kalmanfield as kf
+from kalmanfield import _core
 from kalmanfield import reference as ref
 
 
@@ -58,6 +59,31 @@ def test_second_order_closed_form_on_real_lags():
 def test_rust_correlation_equals_reference(n, rho, lags):
     got = kf.ARFieldModel(rho, n).correlation(np.array(lags))
     np.testing.assert_allclose(got, ref.axis_correlation(rho, n, lags), rtol=1e-10, atol=1e-13)
+
+
+@given(
+    n=st.integers(1, 6),
+    rhos=st.lists(st.floats(0.05, 0.995), min_size=1, max_size=5),
+    lags=st.lists(st.floats(-20, 20), min_size=1, max_size=8),
+)
+def test_correlation_table_equals_reference(n, rhos, lags):
+    """The batch of `model_from_noisy`'s fit: one row per ρ, each the reference R(lags)."""
+    table = _core.axis_correlation_table(np.array(rhos), n, np.array(lags))
+    assert table.shape == (len(rhos), len(lags))
+    for row, rho in zip(table, rhos):
+        np.testing.assert_allclose(row, ref.axis_correlation(rho, n, lags), rtol=1e-10, atol=1e-13)
+
+
+def test_correlation_table_refuses_bad_input():
+    lags = np.arange(3.0)
+    for rhos, n, bad_lags, match in [
+        ([0.5, 1.0], 1, lags, "rho"),
+        ([0.5], 0, lags, "order"),
+        ([0.5], 1, np.array([1.0, np.nan]), "finite"),
+        ([0.5], 1, lags[::2], "contiguous"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            _core.axis_correlation_table(np.array(rhos), n, bad_lags)
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])

@@ -14,6 +14,7 @@ from kalmanfield.denoise import local_moments
 from kalmanfield.reference import row_filters as ref
 from kalmanfield.reference.adaptive_denoise import adaptive_denoise as ref_adaptive
 from kalmanfield.reference.local_moments import local_moments as ref_local_moments
+from kalmanfield.reference.noise_level import haar_noise_var as ref_noise_var
 
 CASES = [((0.9, 0.8), (1, 1)), ((0.85, 0.9), (2, 2)), ((0.7, 0.95), (1, 2)), ((0.8, 0.6), (3, 1))]
 
@@ -260,6 +261,27 @@ def test_missing_pixels_in_the_estimates():
     np.testing.assert_allclose(fitted.rho, want.rho, atol=0.01)
 
 
+@given(
+    shape=st.tuples(st.integers(1, 3), st.integers(2, 9), st.integers(2, 9)),
+    seed=st.integers(0, 2**32 - 1),
+    missing=st.sampled_from([0.0, 0.2, 0.6]),
+)
+def test_noise_estimate_equals_reference(shape, seed, missing):
+    """The Rust Haar-MAD kernel == its NumPy twin, bit for bit: odd sizes (the last row or
+    column left out), stacks pooled, NaN blocks left out, odd and even counts."""
+    rng = np.random.default_rng(seed)
+    z = rng.standard_normal(shape) * rng.uniform(0.1, 10.0)
+    z[rng.random(shape) < missing] = np.nan
+    for image in (z, z[0], z[np.newaxis]):
+        try:
+            want = ref_noise_var(image)
+        except ValueError:
+            with pytest.raises(ValueError, match="missing pixel"):
+                kf.estimate_noise_var(image)
+            continue
+        assert kf.estimate_noise_var(image) == want
+
+
 def test_adaptive_denoise_of_a_stack_is_per_frame():
     rng = np.random.default_rng(4)
     frames = np.cumsum(rng.standard_normal((2, 24, 20)), axis=2)
@@ -268,6 +290,21 @@ def test_adaptive_denoise_of_a_stack_is_per_frame():
         np.testing.assert_array_equal(stack[f], kf.denoise(frames[f], noise_var=0.5))
     # frames run in parallel: the same bits with one thread
     np.testing.assert_array_equal(stack, kf.denoise(frames, noise_var=0.5, threads=1))
+
+
+def test_adaptive_denoise_gives_the_same_bits_whatever_ran_before():
+    """The kernel reuses its frame-sized buffers between calls on a thread
+    (rust/src/scratch.rs): nothing of an earlier, larger call with missing pixels and widened
+    boxes (two more buffers) carries over, and threads=k gives the same bits."""
+    rng = np.random.default_rng(5)
+    small = np.cumsum(rng.standard_normal((30, 40)), axis=1)
+    first = kf.denoise(small, noise_var=0.5)
+    large = np.cumsum(rng.standard_normal((90, 70)), axis=1)
+    large[rng.random(large.shape) < 0.3] = np.nan
+    large[10:40, 10:40] = np.nan
+    assert np.all(np.isfinite(kf.denoise(large, noise_var=0.5)))
+    np.testing.assert_array_equal(kf.denoise(small, noise_var=0.5), first)
+    np.testing.assert_array_equal(kf.denoise(small, noise_var=0.5, threads=2), first)
 
 
 def test_bad_input():

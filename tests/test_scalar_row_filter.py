@@ -304,6 +304,21 @@ def test_denoise_reduces_the_error_close_to_the_model_bound():
     assert kf.denoise(img8).shape == img8.shape
 
 
+def test_blind_stationary_denoise_loses_nothing_to_the_toeplitz_modes():
+    """denoise(adaptive=False) filters its fitted model with the Toeplitz mode set (cheap
+    plan): on coins, σ = 0.1, its MSE is within 0.5 % of the default spliced ends' (measured:
+    PSNR within 0.002 dB), and the noise is well reduced."""
+    data = pytest.importorskip("skimage.data")
+    clean = data.coins() / 255.0
+    z = clean + 0.1 * np.random.default_rng(0).standard_normal(clean.shape)
+    model, mean, _ = kf.model_from_noisy(z)
+    ends = kf.ScalarRowFilter(model, kf.estimate_noise_var(z), z.shape[1], smooth=True, mean=mean)
+    want = np.mean((ends.filter(z) - clean) ** 2)
+    got = np.mean((kf.denoise(z, adaptive=False) - clean) ** 2)
+    assert got == pytest.approx(want, rel=0.005)
+    assert got < 0.4 * 0.01
+
+
 @pytest.mark.parametrize(
     "call,exc,match",
     [

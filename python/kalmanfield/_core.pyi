@@ -106,6 +106,10 @@ def local_moments_into(
     mean: npt.NDArray[np.float64],
     var: npt.NDArray[np.float64],
 ) -> None: ...
+def axis_correlation_table(
+    rhos: npt.NDArray[np.float64], order: int, lags: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]: ...
+def haar_noise_var(z: npt.NDArray[np.float64]) -> float: ...
 def adaptive_denoise_into(
     z: npt.NDArray[np.float64],
     noise_var: float,

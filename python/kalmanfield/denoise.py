@@ -43,18 +43,14 @@ def _odd_window(window: object) -> None:
 def estimate_noise_var(image: npt.ArrayLike) -> float:
     """σ_θ² of white noise in an image (or a stack, axes (…, H, W)): Donoho's robust estimate
     from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
-    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²)).
-    Blocks with a NaN (missing) pixel are left out."""
+    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²)),
+    pooled over the frames of a stack. Blocks with a NaN (missing) pixel are left out.
+    Rust kernel (``rust/src/noise_level.rs``; NumPy twin ``reference.noise_level``)."""
     z = np.asarray(image, dtype=np.float64)
     if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2:
         raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
-    h, w = z.shape[-2] // 2 * 2, z.shape[-1] // 2 * 2
-    z = z[..., :h, :w]
-    detail = (z[..., 0::2, 0::2] - z[..., 0::2, 1::2] - z[..., 1::2, 0::2] + z[..., 1::2, 1::2]) / 2
-    detail = detail[np.isfinite(detail)]
-    if detail.size == 0:
-        raise ValueError("no 2×2 block without a missing pixel: cannot estimate the noise")
-    return float((np.median(np.abs(detail)) / 0.6745) ** 2)
+    stack = np.ascontiguousarray(z.reshape(-1, *z.shape[-2:]))
+    return _core.haar_noise_var(stack)
 
 
 def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldModel, float, float]:
@@ -100,22 +96,21 @@ def _fit_axis(centred: np.ndarray, axis: int, max_order: int) -> tuple[float, in
     return rho, n, scale
 
 
-def _misfit(cov: np.ndarray, h: np.ndarray, n: int, rho: float) -> tuple[float, float]:
-    """Least-squares misfit of σ² R_{n,ρ}(h) to cov, and the fitted σ² (≥ 0)."""
-    r = ARFieldModel(rho, n).correlation(h)
-    scale = max(float(cov @ r / (r @ r)), 0.0)
-    return float(np.sum((cov - scale * r) ** 2)), scale
+def _misfits(
+    cov: np.ndarray, h: np.ndarray, n: int, rhos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares misfits of σ² R_{n,ρ}(h) to cov for every ρ of `rhos`, and the fitted
+    σ² (≥ 0) of each (one Rust call for the table of R_{n,ρ}(h))."""
+    r = _core.axis_correlation_table(np.ascontiguousarray(rhos, dtype=np.float64), n, h)
+    scale = np.maximum(r @ cov / np.einsum("ij,ij->i", r, r), 0.0)
+    return np.sum((cov - scale[:, np.newaxis] * r) ** 2, axis=1), scale
 
 
 def _best_rho(cov: np.ndarray, h: np.ndarray, n: int) -> tuple[float, float, float]:
     """argmin over ρ of the misfit (:func:`minimise_over_rho`): (misfit, ρ, σ²)."""
-
-    def misfits(rhos: np.ndarray) -> np.ndarray:
-        return np.array([_misfit(cov, h, n, float(r))[0] for r in rhos])
-
-    rho = minimise_over_rho(misfits, 60, 40)
-    err, scale = _misfit(cov, h, n, rho)
-    return err, rho, scale
+    rho = minimise_over_rho(lambda rhos: _misfits(cov, h, n, rhos)[0], 60, 40)
+    err, scale = _misfits(cov, h, n, np.array([rho]))
+    return float(err[0]), rho, float(scale[0])
 
 
 def denoise(
@@ -146,11 +141,18 @@ def denoise(
         One Rust kernel (``rust/src/adaptive_denoise.rs``; NumPy twin
         ``reference.adaptive_denoise``); the frames of a stack run in parallel.
     adaptive=False : one stationary model for the whole image. `model`: the field model of x;
-        None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1).
+        None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1),
+        filtered with the Toeplitz mode set (its plan is cheap, and a model refitted per
+        image has no plan to reuse; on camera, coins and moon, σ = 0.1, the PSNR moves by
+        at most 0.02 dB against the default spliced ends and the filter is built 4–10×
+        faster); a given model gets the default mode set.
     method : "scalar" (:class:`ScalarRowFilter`, O(W) per row) or "vector"
         (:class:`VectorRowFilter`, optimal, O(W²) per row; not adaptive).
     smooth : run the backward pass over the rows (default).
     mean : the field mean of the stationary model (None: the image mean).
+    threads : threads for the frames of a stack (None: all cores). In the adaptive mode a
+        single image runs on the calling thread (GIL released) whatever `threads` says: its
+        kernel has no parallel part, and the thread keeps its scratch buffers between calls.
     Returns float64 of the image's shape. uint8/uint16/float inputs are accepted.
     NaN pixels are missing observations (method="scalar"): left out of the noise estimate,
     the model fit and the box moments, given weight 0 by the filter and filled by its
@@ -170,12 +172,16 @@ def denoise(
         raise ValueError("the estimated noise variance is 0: the image looks noise-free")
     if adaptive:
         return _adaptive(z, nv, DETAIL_MODEL if model is None else model, window, smooth, threads)
+    modes = "ends"
     if model is None:
         model, fitted_mean, _ = model_from_noisy(z)
         mean = fitted_mean if mean is None else mean
+        modes = "toeplitz"
     mean = float(np.nanmean(z)) if mean is None else float(mean)
     if method == "scalar":
-        filt = ScalarRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
+        filt = ScalarRowFilter(
+            model, nv, z.shape[-1], smooth=smooth, mean=mean, modes=modes, threads=threads
+        )
     else:
         filt = VectorRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
     return filt.filter(z)

@@ -12,11 +12,13 @@
 //! from the neighbours), σ kept; where a box holds no observed pixel, it is widened until it
 //! holds one.
 
+use crate::banded::fused_available;
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
 use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::ScalarRowFilter;
+use crate::scratch::Scratch;
 use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
 
@@ -59,6 +61,10 @@ pub fn adaptive_denoise(
     if size == 0 {
         return Ok(());
     }
+    if frames == 1 {
+        // on the calling thread (GIL released), which keeps its scratch buffers between calls
+        return frame(z, height, width, settings, out);
+    }
     out.par_chunks_mut(size)
         .zip(z.par_chunks(size))
         .try_for_each(|(o, f)| frame(f, height, width, settings, o))
@@ -71,32 +77,25 @@ fn frame(
     settings: &AdaptiveSettings,
     out: &mut [f64],
 ) -> Result<()> {
-    // a pool thread may hold dirty upper vector halves (see `vector_state`): the box moments
-    // and the normalisation below are baseline SSE2 code
+    // a pool thread may hold dirty upper vector halves (see `vector_state`): the median and
+    // the final x̂ below are baseline SSE2 code (the box moments and the normalisation run
+    // their AVX2 builds where the CPU has them)
     crate::vector_state::clear_upper_state();
     let noise_var = settings.noise_var;
     // `out` holds μ, then x̂; `scale` the box variance, then σ
-    let mut scale = vec![0.0; z.len()];
+    let mut scale = Scratch::zeros(z.len());
     local_moments(z, 1, height, width, settings.radius, out, &mut scale)?;
     widen_empty_boxes(z, (height, width, settings.radius), out, &mut scale)?;
-    let mut residual = vec![0.0; z.len()];
-    let mut weights = vec![0.0; z.len()];
-    for (((r, w), (x, mu)), s) in residual
-        .iter_mut()
-        .zip(&mut weights)
-        .zip(z.iter().zip(&*out))
-        .zip(&mut scale)
-    {
-        let signal = (*s - noise_var).max(SIGNAL_FLOOR * noise_var);
-        *s = signal.sqrt();
-        // a missing pixel: weight 0 (its residual is ignored), σ kept for x̂ = μ + σ ξ̂
-        let observed = !x.is_nan();
-        *w = if observed { signal / noise_var } else { 0.0 };
-        *r = if observed { (x - mu) / *s } else { 0.0 };
-    }
+    let mut residual = Scratch::zeros(z.len());
+    let mut weights = Scratch::zeros(z.len());
+    let normalised = Normalised {
+        residual: &mut residual,
+        weights: &mut weights,
+    };
+    normalise(z, out, &mut scale, normalised, noise_var);
     let nominal = 1.0 / sample_median(&weights);
     let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?;
-    let mut detail = vec![0.0; z.len()];
+    let mut detail = Scratch::zeros(z.len());
     filter.filter_image(
         &residual,
         Some(&weights),
@@ -108,6 +107,56 @@ fn frame(
         *x += s * d;
     }
     Ok(())
+}
+
+/// The outputs of [`normalise`].
+struct Normalised<'a> {
+    residual: &'a mut [f64],
+    weights: &'a mut [f64],
+}
+
+/// Per pixel, from the box mean μ and variance v: σ² = max(v − σ_θ², SIGNAL_FLOOR σ_θ²),
+/// `scale` ← σ, weight σ²/σ_θ² and residual (z − μ)/σ; a missing pixel gets weight 0 and
+/// residual 0 (σ is kept for x̂ = μ + σ ξ̂). Four pixels per instruction where AVX2 runs.
+fn normalise(z: &[f64], mean: &[f64], scale: &mut [f64], to: Normalised, noise_var: f64) {
+    #[cfg(target_arch = "x86_64")]
+    if fused_available() {
+        // SAFETY: the CPU has FMA and AVX2.
+        return unsafe { normalise_avx2(z, mean, scale, to, noise_var) };
+    }
+    normalise_pixels(z, mean, scale, to, noise_var)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma,avx2")]
+unsafe fn normalise_avx2(
+    z: &[f64],
+    mean: &[f64],
+    scale: &mut [f64],
+    to: Normalised,
+    noise_var: f64,
+) {
+    normalise_pixels(z, mean, scale, to, noise_var)
+}
+
+#[inline(always)]
+fn normalise_pixels(z: &[f64], mean: &[f64], scale: &mut [f64], to: Normalised, noise_var: f64) {
+    let floor = SIGNAL_FLOOR * noise_var;
+    let n = z.len();
+    let (mean, scale) = (&mean[..n], &mut scale[..n]);
+    let (residual, weights) = (&mut to.residual[..n], &mut to.weights[..n]);
+    for k in 0..n {
+        let signal = (scale[k] - noise_var).max(floor);
+        let sigma = signal.sqrt();
+        let observed = !z[k].is_nan();
+        scale[k] = sigma;
+        weights[k] = if observed { signal / noise_var } else { 0.0 };
+        residual[k] = if observed {
+            (z[k] - mean[k]) / sigma
+        } else {
+            0.0
+        };
+    }
 }
 
 /// Where a box holds no observed pixel (its moments are NaN), the moments of the box widened
@@ -127,7 +176,7 @@ fn widen_empty_boxes(
             "a frame has no observed pixel: every pixel is NaN".into(),
         ));
     }
-    let (mut wide_mean, mut wide_var) = (vec![0.0; z.len()], vec![0.0; z.len()]);
+    let (mut wide_mean, mut wide_var) = (Scratch::zeros(z.len()), Scratch::zeros(z.len()));
     let mut radius = radius;
     while mean.iter().any(|m| m.is_nan()) {
         radius = 2 * radius + 1;

@@ -94,6 +94,22 @@ impl AxisModel {
     }
 }
 
+/// R_{n,ρ}(lag) for every ρ of `rhos` (rows) and lag of `lags` (columns), row-major: the
+/// candidates of a fit over ρ (`model_from_noisy`) in one call.
+pub fn correlation_table(rhos: &[f64], order: usize, lags: &[f64]) -> Result<Vec<f64>> {
+    if let Some(bad) = lags.iter().find(|l| !l.is_finite()) {
+        return Err(FieldError::NonFinite(format!(
+            "lags must be finite, got {bad}"
+        )));
+    }
+    let mut table = Vec::with_capacity(rhos.len() * lags.len());
+    for &rho in rhos {
+        let axis = AxisModel::new(rho, order)?;
+        table.extend(lags.iter().map(|&lag| axis.correlation(lag)));
+    }
+    Ok(table)
+}
+
 /// Expands [P 2.9] into powers of the lag. With β̃² substituted, the l-th term is
 /// ρ^{2(n-l-1)} (1-ρ²)^l / S · (2n-l-2)! / (l! (n-1)! (n-l-1)!) · Π_{i<l} (r + n - 1 - i),
 /// which stays well scaled for ρ → 1 (no (1-ρ²)^{-(2n-1)} blow-up).
@@ -142,6 +158,20 @@ mod tests {
         let h = impulse(rho, n);
         let c = |lag: usize| -> f64 { h.iter().zip(&h[lag..]).map(|(a, b)| a * b).sum() };
         c(k) / c(0)
+    }
+
+    #[test]
+    fn correlation_table_rows_are_the_models_correlations() {
+        let (rhos, lags) = ([0.3, 0.9, 0.99], [0.0, 1.0, 2.5, 7.0]);
+        let table = correlation_table(&rhos, 3, &lags).unwrap();
+        for (row, &rho) in table.chunks_exact(lags.len()).zip(&rhos) {
+            let axis = AxisModel::new(rho, 3).unwrap();
+            let want: Vec<f64> = lags.iter().map(|&l| axis.correlation(l)).collect();
+            assert_eq!(row, want.as_slice());
+        }
+        assert!(correlation_table(&[0.5, 1.0], 2, &lags).is_err());
+        assert!(correlation_table(&[0.5], 0, &lags).is_err());
+        assert!(correlation_table(&[0.5], 2, &[1.0, f64::NAN]).is_err());
     }
 
     #[test]

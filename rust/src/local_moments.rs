@@ -35,26 +35,61 @@ pub fn local_moments(
     if size == 0 {
         return Ok(());
     }
+    let one_frame = |((m, v), f): ((&mut [f64], &mut [f64]), &[f64])| {
+        let total = sum(f);
+        if total.is_nan() {
+            frame_moments::<true>(f, observed_mean(f), (height, width, radius), m, v);
+        } else {
+            let shift = total / f.len() as f64;
+            frame_moments::<false>(f, shift, (height, width, radius), m, v);
+        }
+    };
+    if frames == 1 {
+        // on this thread: no hand-over to the pool for a single frame
+        one_frame(((mean, var), z));
+        return Ok(());
+    }
     mean.par_chunks_mut(size)
         .zip(var.par_chunks_mut(size))
         .zip(z.par_chunks(size))
-        .for_each(|((m, v), f)| {
-            let total = sum(f);
-            if total.is_nan() {
-                frame_moments::<true>(f, observed_mean(f), (height, width, radius), m, v);
-            } else {
-                let shift = total / f.len() as f64;
-                frame_moments::<false>(f, shift, (height, width, radius), m, v);
-            }
-        });
+        .for_each(one_frame);
     Ok(())
+}
+
+/// [`frame_moments_of`] compiled for AVX2 where the CPU has it (four columns per instruction).
+fn frame_moments<const MASKED: bool>(
+    z: &[f64],
+    shift: f64,
+    shape: (usize, usize, usize),
+    mean: &mut [f64],
+    var: &mut [f64],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::banded::fused_available() {
+        // SAFETY: the CPU has FMA and AVX2.
+        return unsafe { frame_moments_avx2::<MASKED>(z, shift, shape, mean, var) };
+    }
+    frame_moments_of::<MASKED>(z, shift, shape, mean, var)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma,avx2")]
+unsafe fn frame_moments_avx2<const MASKED: bool>(
+    z: &[f64],
+    shift: f64,
+    shape: (usize, usize, usize),
+    mean: &mut [f64],
+    var: &mut [f64],
+) {
+    frame_moments_of::<MASKED>(z, shift, shape, mean, var)
 }
 
 /// The box sums along the rows of the 2r + 1 rows in the window are kept in a ring; the
 /// window's column sums are running sums of whole rows. Three sums per pixel: of z − shift
 /// (shift: the mean of the observed pixels), of its square and, when MASKED (the frame has
 /// NaN pixels), of the observed pixels; without NaN the counts are the cut box's area.
-fn frame_moments<const MASKED: bool>(
+#[inline(always)]
+fn frame_moments_of<const MASKED: bool>(
     z: &[f64],
     shift: f64,
     (h, w, r): (usize, usize, usize),

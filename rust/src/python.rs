@@ -552,6 +552,31 @@ fn local_moments_into(
     Ok(())
 }
 
+/// R_{n,ρ}(lag) of one axis for every ρ of `rhos` (rows) and lag of `lags` (columns).
+#[pyfunction]
+fn axis_correlation_table<'py>(
+    py: Python<'py>,
+    rhos: PyReadonlyArray1<'py, f64>,
+    order: usize,
+    lags: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let contiguous_error =
+        |name: &str| PyValueError::new_err(format!("{name} must be C-contiguous"));
+    let r = rhos.as_slice().map_err(|_| contiguous_error("rhos"))?;
+    let l = lags.as_slice().map_err(|_| contiguous_error("lags"))?;
+    let table = crate::axis_model::correlation_table(r, order, l)?;
+    PyArray1::from_vec(py, table).reshape([r.len(), l.len()])
+}
+
+/// σ̂_θ² of white noise in an image (H, W) or a stack (F, H, W), pooled over the frames:
+/// the Haar-MAD estimate of `noise_level.rs`.
+#[pyfunction]
+fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f64> {
+    let (frames, height, width) = stack_dims(z.shape())?;
+    let values = contiguous(&z, "z")?;
+    Ok(py.detach(|| crate::noise_level::haar_mad_noise_var(values, frames, height, width))?)
+}
+
 /// The adaptive denoiser (README "denoise") of an image (H, W) or a stack (F, H, W) into
 /// `out` (same shape), frames in parallel.
 #[pyfunction]
@@ -576,6 +601,12 @@ fn adaptive_denoise_into(
         model: &model.inner,
         radius,
         smooth,
+    };
+    // one frame has no parallel part: it runs on this thread, whose scratch buffers persist
+    // between calls (a fresh pool's thread would fault them in anew: `scratch.rs`)
+    let threads = match threads {
+        Some(k) if k > 0 && frames == 1 => None,
+        t => t,
     };
     py.detach(|| {
         with_threads(threads, || {
@@ -622,6 +653,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
+    m.add_function(wrap_pyfunction!(haar_noise_var, m)?)?;
+    m.add_function(wrap_pyfunction!(axis_correlation_table, m)?)?;
     m.add_function(wrap_pyfunction!(adaptive_denoise_into, m)?)?;
     m.add("SIGNAL_FLOOR", crate::adaptive_denoise::SIGNAL_FLOOR)?;
     m.add("NOMINAL_SAMPLE", crate::adaptive_denoise::NOMINAL_SAMPLE)?;

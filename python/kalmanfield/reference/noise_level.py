@@ -1,0 +1,20 @@
+"""NumPy twin of the Rust ``noise_level`` kernel: Donoho's Haar-MAD estimate of the white
+noise variance used by ``denoise``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def haar_noise_var(z: np.ndarray) -> float:
+    """σ̂² = (median|d| / 0.6745)² over the finest diagonal Haar details
+    d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of the disjoint 2×2 blocks of an image or stack (…, H, W);
+    blocks with a NaN or infinite pixel are left out."""
+    z = np.asarray(z, dtype=np.float64)
+    h, w = z.shape[-2] // 2 * 2, z.shape[-1] // 2 * 2
+    z = z[..., :h, :w]
+    detail = (z[..., 0::2, 0::2] - z[..., 0::2, 1::2] - z[..., 1::2, 0::2] + z[..., 1::2, 1::2]) / 2
+    detail = detail[np.isfinite(detail)]
+    if detail.size == 0:
+        raise ValueError("no 2×2 block without a missing pixel: cannot estimate the noise")
+    return float((np.median(np.abs(detail)) / 0.6745) ** 2)
