@@ -88,11 +88,7 @@ fn frame(
     widen_empty_boxes(z, (height, width, settings.radius), out, &mut scale)?;
     let mut residual = Scratch::zeros(z.len());
     let mut weights = Scratch::zeros(z.len());
-    let normalised = Normalised {
-        residual: &mut residual,
-        weights: &mut weights,
-    };
-    normalise(z, out, &mut scale, normalised, noise_var);
+    normalise(z, out, &mut scale, &mut residual, &mut weights, noise_var);
     let nominal = 1.0 / sample_median(&weights);
     let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?;
     let mut detail = Scratch::zeros(z.len());
@@ -103,28 +99,29 @@ fn frame(
         height,
         settings.smooth,
     )?;
-    for ((x, s), d) in out.iter_mut().zip(&scale).zip(&detail) {
+    for ((x, s), d) in out.iter_mut().zip(scale.iter()).zip(detail.iter()) {
         *x += s * d;
     }
     Ok(())
 }
 
-/// The outputs of [`normalise`].
-struct Normalised<'a> {
-    residual: &'a mut [f64],
-    weights: &'a mut [f64],
-}
-
 /// Per pixel, from the box mean μ and variance v: σ² = max(v − σ_θ², SIGNAL_FLOOR σ_θ²),
 /// `scale` ← σ, weight σ²/σ_θ² and residual (z − μ)/σ; a missing pixel gets weight 0 and
 /// residual 0 (σ is kept for x̂ = μ + σ ξ̂). Four pixels per instruction where AVX2 runs.
-fn normalise(z: &[f64], mean: &[f64], scale: &mut [f64], to: Normalised, noise_var: f64) {
+fn normalise(
+    z: &[f64],
+    mean: &[f64],
+    scale: &mut [f64],
+    residual: &mut [f64],
+    weights: &mut [f64],
+    noise_var: f64,
+) {
     #[cfg(target_arch = "x86_64")]
     if fused_available() {
         // SAFETY: the CPU has FMA and AVX2.
-        return unsafe { normalise_avx2(z, mean, scale, to, noise_var) };
+        return unsafe { normalise_avx2(z, mean, scale, residual, weights, noise_var) };
     }
-    normalise_pixels(z, mean, scale, to, noise_var)
+    normalise_pixels(z, mean, scale, residual, weights, noise_var)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -133,18 +130,26 @@ unsafe fn normalise_avx2(
     z: &[f64],
     mean: &[f64],
     scale: &mut [f64],
-    to: Normalised,
+    residual: &mut [f64],
+    weights: &mut [f64],
     noise_var: f64,
 ) {
-    normalise_pixels(z, mean, scale, to, noise_var)
+    normalise_pixels(z, mean, scale, residual, weights, noise_var)
 }
 
 #[inline(always)]
-fn normalise_pixels(z: &[f64], mean: &[f64], scale: &mut [f64], to: Normalised, noise_var: f64) {
+fn normalise_pixels(
+    z: &[f64],
+    mean: &[f64],
+    scale: &mut [f64],
+    residual: &mut [f64],
+    weights: &mut [f64],
+    noise_var: f64,
+) {
     let floor = SIGNAL_FLOOR * noise_var;
     let n = z.len();
     let (mean, scale) = (&mean[..n], &mut scale[..n]);
-    let (residual, weights) = (&mut to.residual[..n], &mut to.weights[..n]);
+    let (residual, weights) = (&mut residual[..n], &mut weights[..n]);
     for k in 0..n {
         let signal = (scale[k] - noise_var).max(floor);
         let sigma = signal.sqrt();
@@ -184,7 +189,7 @@ fn widen_empty_boxes(
         for ((m, v), (wm, wv)) in mean
             .iter_mut()
             .zip(&mut *var)
-            .zip(wide_mean.iter().zip(&wide_var))
+            .zip(wide_mean.iter().zip(wide_var.iter()))
         {
             if m.is_nan() {
                 (*m, *v) = (*wm, *wv);

@@ -80,33 +80,17 @@ impl DerefMut for Scratch {
     }
 }
 
-impl<'a> IntoIterator for &'a Scratch {
-    type Item = &'a f64;
-    type IntoIter = std::slice::Iter<'a, f64>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.iter()
-    }
-}
-
-impl<'a> IntoIterator for &'a mut Scratch {
-    type Item = &'a mut f64;
-    type IntoIter = std::slice::IterMut<'a, f64>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.iter_mut()
-    }
-}
-
-/// Bytes of spare buffers this thread holds now.
-pub fn retained_bytes() -> usize {
-    SPARES.with(|spares| {
-        let values: usize = spares.borrow().iter().map(Vec::capacity).sum();
-        values * std::mem::size_of::<f64>()
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bytes of spare buffers this thread holds now.
+    fn retained_bytes() -> usize {
+        SPARES.with(|spares| {
+            let values: usize = spares.borrow().iter().map(Vec::capacity).sum();
+            values * std::mem::size_of::<f64>()
+        })
+    }
 
     #[test]
     fn a_dropped_buffer_is_reused_zeroed() {
