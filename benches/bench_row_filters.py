@@ -507,6 +507,35 @@ def calling_thread_speed(cfg: Config) -> list[str]:
     ]
 
 
+def error_map_row(order: tuple[int, int], width: int, repeats: int) -> str:
+    """One row of ``error_map_speed``."""
+    model = model_of(order, SPEED_RHO)
+    scalar = kf.ScalarRowFilter(model, 1.0, width, threads=1)
+    first, _ = once(lambda: scalar.error_variance(width))
+    cached = best_of(lambda: scalar.error_variance(width), repeats)
+    vector = best_of(
+        lambda: kf.VectorRowFilter(model, 1.0, width, threads=1).error_variance(width), repeats
+    )
+    return (
+        f"| {order} | {1e3 * cached:.0f} (first call {1e3 * first:.0f}) | "
+        f"{1e3 * vector:.0f} | {vector / cached:.0f}× |"
+    )
+
+
+def error_map_speed(cfg: Config) -> list[str]:
+    """Per-pixel error maps at vector_width² (one thread): the O(W) filter's own map
+    (selected inversion of its row systems) against the optimal filter's (eigenbasis)."""
+    width = cfg.vector_width
+    return [
+        f"#### Per-pixel error maps, {width}², 1 thread",
+        "",
+        "| model | `ScalarRowFilter.error_variance` ms | `VectorRowFilter` construction + "
+        "`error_variance` ms | ratio |",
+        "|---|---:|---:|---:|",
+        *(error_map_row(order, width, cfg.repeats) for order in ORDERS[:4]),
+    ]
+
+
 def isolated(fn: Callable, *args: object) -> object:
     """fn(*args) in a fresh interpreter (spawn): no CPU state is left over from earlier
     measurements (see the threads=None table)."""
@@ -522,6 +551,7 @@ def speed_section(cfg: Config) -> str:
         isolated(reference_speed, cfg.repeats),
         isolated(reference_speed, cfg.repeats, cfg.speed_size),
         isolated(vector_speed, cfg),
+        isolated(error_map_speed, cfg),
         sweep_speed(cfg),
         setup_speed(cfg),
         isolated(stack_speed, cfg),

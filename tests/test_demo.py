@@ -37,6 +37,9 @@ def test_filtering_numbers_are_ordered_as_the_theory_says(tmp_path):
     # one 256² realisation: its MSEs scatter by a few % around their expectations
     assert 0.8 < noisy < 1.2
     assert abs(optimal / predicted - 1) < 0.15
+    # the O(W) filter's own error map: within ~1 % of the optimal one's for (2,2), ρ = 0.9
+    predicted_quasi = mse["predicted (ScalarRowFilter.error_variance)"]
+    assert abs(predicted_quasi / predicted - 1) < 0.02
     assert abs(quasi / optimal - 1) < 0.05  # the same realisation: the loss is < 1 % here
     assert smoothed < 0.7 * optimal  # the backward pass halves the causal error for (2,2)
     assert abs(smoothed / bound - 1) < 0.15

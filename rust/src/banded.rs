@@ -146,6 +146,19 @@ impl SymmetricBand {
         }
     }
 
+    /// The entries of A⁻¹ within the band (`band_inverse`), from a plain factorisation (no
+    /// solve plans: for one-off inverses).
+    pub(crate) fn inverse_band(&self) -> Result<SymmetricBand> {
+        let (n, b) = (self.size, self.bandwidth);
+        let mut l = self.data.clone();
+        factor_in_place(&mut l, n, b)?;
+        Ok(SymmetricBand {
+            size: n,
+            bandwidth: b,
+            data: crate::band_inverse::selected_inverse(&l, n, b),
+        })
+    }
+
     /// The band of L before `steady_band::snap_interior`, for the tests.
     #[cfg(test)]
     pub(crate) fn cholesky_unsnapped(&self) -> Vec<f64> {
@@ -585,6 +598,15 @@ thread_local! {
 }
 
 impl BandCholesky {
+    /// The entries of A⁻¹ within the band (`band_inverse`), as a symmetric band.
+    pub(crate) fn inverse_band(&self) -> SymmetricBand {
+        SymmetricBand {
+            size: self.size,
+            bandwidth: self.bandwidth,
+            data: crate::band_inverse::selected_inverse(&self.data, self.size, self.bandwidth),
+        }
+    }
+
     /// The substitution coefficients, for the steady solves.
     fn coefficients(&self) -> FactorCoefficients<'_> {
         FactorCoefficients {

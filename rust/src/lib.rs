@@ -8,6 +8,7 @@ pub mod anisotropy;
 pub mod axis_lines;
 pub mod axis_model;
 pub mod axis_modes;
+mod band_inverse;
 pub mod band_ldl;
 pub mod banded;
 pub mod branching;

@@ -45,7 +45,8 @@ pub fn haar_mad_noise_var(z: &[f64], frames: usize, height: usize, width: usize)
     }
     let sigma = median_of_bits(&mut details).ok_or_else(|| {
         FieldError::NonFinite(
-            "no 2×2 block without a missing pixel: cannot estimate the noise".into(),
+            "no 2×2 block without a NaN (missing) or infinite pixel: cannot estimate the noise"
+                .into(),
         )
     })? / NORMAL_QUARTILE;
     Ok(sigma * sigma)

@@ -498,6 +498,24 @@ impl PyScalarRowFilter {
         self.inner.bandwidth()
     }
 
+    /// The causal filter's per-pixel error variance map (height × width); `weights`:
+    /// per-pixel 1/σ_θ² of that shape (0 = missing pixel), None = nominal.
+    #[pyo3(signature = (height, weights=None))]
+    fn error_variance<'py>(
+        &self,
+        py: Python<'py>,
+        height: usize,
+        weights: Option<PyReadonlyArrayDyn<'_, f64>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let width = self.inner.width();
+        let weights = weights
+            .as_ref()
+            .map(|w| contiguous(w, "weights"))
+            .transpose()?;
+        let out = py.detach(|| self.inner.error_variance(height, weights))?;
+        PyArray1::from_vec(py, out).reshape([height, width])
+    }
+
     /// Filters z (height × width, or frames × height × width) into `out` (same shape);
     /// `weights`: per-pixel 1/σ_θ² of z's shape (0 = missing pixel).
     #[pyo3(signature = (z, out, smooth, threads=None, weights=None))]

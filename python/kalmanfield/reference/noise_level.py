@@ -16,5 +16,7 @@ def haar_noise_var(z: np.ndarray) -> float:
     detail = (z[..., 0::2, 0::2] - z[..., 0::2, 1::2] - z[..., 1::2, 0::2] + z[..., 1::2, 1::2]) / 2
     detail = detail[np.isfinite(detail)]
     if detail.size == 0:
-        raise ValueError("no 2×2 block without a missing pixel: cannot estimate the noise")
+        raise ValueError(
+            "no 2×2 block without a NaN (missing) or infinite pixel: cannot estimate the noise"
+        )
     return float((np.median(np.abs(detail)) / 0.6745) ** 2)

@@ -626,6 +626,30 @@ def scalar_row_passes(
     return image(filt), (image(means) if smooth else None)
 
 
+def scalar_nominal_error_map(
+    rho, order, sigma, noise_var, shape, ar_order=None, plan=None, weights=None
+):
+    """The error variance the causal quasi-optimal filter assumes: per pixel h_tᵀ [A_t⁻¹]_ℓℓ h_t,
+    with A_t⁻¹ dense (twin of the Rust selected inversion; small grids only). weights: (H, W)
+    per-pixel 1/σ_θ² (0 = missing), the systems of ``weighted_systems``."""
+    height, width = shape
+    n = order[0]
+    if plan is None:
+        plan = scalar_filter_plan(rho, order, sigma, noise_var, width, height, ar_order)
+    _, lower = row_basis(rho[0], n)
+    if weights is None:
+        chols = [step["chol"] for step in plan[:height]]
+    else:
+        chols = weighted_systems(plan[:height], lower, np.asarray(weights, dtype=np.float64))
+    out = np.empty((height, width))
+    for t, (step, chol) in enumerate(zip(plan[:height], chols)):
+        cov = cho_solve_banded((chol, False), np.eye(width * n))
+        blocks = np.einsum("lalb->lab", cov.reshape(width, n, width, n))
+        h = lower[step["index"]]
+        out[t] = np.einsum("a,lab,b->l", h, blocks, h)
+    return out
+
+
 # ----------------------------------------------------------------------------------------------
 # 4. exact MSE of a linear row estimator
 
