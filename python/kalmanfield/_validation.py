@@ -96,18 +96,25 @@ def float_dtype(dtype: npt.DTypeLike) -> np.dtype:
     return dt
 
 
-def allocate(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
-    """An empty C-ordered array, refusing sizes beyond the machine's physical memory."""
-    nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+def check_memory(shape: tuple[int, ...], dtype: np.dtype, copies: int = 1) -> None:
+    """MemoryError when `copies` arrays of `shape` and `dtype` exceed the machine's physical
+    memory (before a kernel would try to allocate them and abort)."""
+    nbytes = copies * int(np.prod(shape, dtype=object)) * dtype.itemsize
     try:
         physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
         physical = None
     if physical is not None and nbytes > physical:
+        what = f"a {shape} {dtype} array" if copies == 1 else f"{copies} {shape} {dtype} arrays"
         raise MemoryError(
-            f"a {shape} {dtype} array needs {nbytes / 2**30:.1f} GiB, more than the "
-            f"{physical / 2**30:.1f} GiB of memory of this machine"
+            f"{what} need{'s' if copies == 1 else ''} {nbytes / 2**30:.1f} GiB, more than "
+            f"the {physical / 2**30:.1f} GiB of memory of this machine"
         )
+
+
+def allocate(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
+    """An empty C-ordered array, refusing sizes beyond the machine's physical memory."""
+    check_memory(shape, dtype)
     return np.empty(shape, dtype=dtype)
 
 

@@ -9,7 +9,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._row_filter import RowFilter, images
-from ._validation import positive_int, real_array
+from ._validation import check_memory, positive_int, real_array
 from .ar_field_model import ARFieldModel
 from .wiener_bound import wiener_error_map
 
@@ -84,9 +84,21 @@ class ScalarRowFilter(RowFilter):
         if modes not in _MODES:
             raise ValueError(f"modes must be 'ends', 'exact' or 'toeplitz', got {modes!r}")
         self._modes = modes
+        self._check_memory()
         self._core = _core.ScalarRowFilter(
             model._core, self._noise_var, self._width, self._ar_order, modes
         )
+
+    def _check_memory(self) -> None:
+        """MemoryError for rows too wide to plan: a row system's band (W n_y (b + 1) doubles)
+        held as precision, factor and substitution tables, and with modes="exact" the row's
+        W × W eigenbasis."""
+        n_y = self._model.order[0]
+        m = min(self.ar_order, 8)  # larger orders are refused by the kernel (ValueError)
+        band = self._width * n_y * (n_y * (m + 1))
+        check_memory((band,), np.dtype(np.float64), copies=6)
+        if self._modes == "exact":
+            check_memory((self._width, self._width), np.dtype(np.float64), copies=3)
 
     @property
     def modes(self) -> str:
@@ -159,6 +171,7 @@ class ScalarRowFilter(RowFilter):
         mean on the README's grid); it has no per-pixel noise variant (ValueError).
         """
         height = positive_int(height, "height")
+        check_memory((height, self._width), np.dtype(np.float64))
         if self._smooth:
             if noise_var is not None:
                 raise ValueError(

@@ -6,7 +6,7 @@ import numpy as np
 
 from . import _core
 from ._row_filter import RowFilter
-from ._validation import positive_int
+from ._validation import check_memory, positive_int
 from .ar_field_model import ARFieldModel
 
 
@@ -42,12 +42,17 @@ class VectorRowFilter(RowFilter):
         threads: int | None = None,
     ) -> None:
         self._set_parameters(model, noise_var, width, smooth, mean, threads)
+        # the row's eigenbasis, its squares and the eigensolver's workspace: W × W each
+        check_memory((self._width, self._width), np.dtype(np.float64), copies=3)
         self._core = _core.VectorRowFilter(model._core, self._noise_var, self._width)
 
     def error_variance(self, height: int) -> np.ndarray:
         """(height, W) map of the per-pixel error variance (diag P) of this filter — of the
         smoother when smooth=True."""
-        return self._core.error_variance(positive_int(height, "height"), self._smooth)
+        height = positive_int(height, "height")
+        # the map and the kernel's per-mode map of the same size
+        check_memory((height, self._width), np.dtype(np.float64), copies=2)
+        return self._core.error_variance(height, self._smooth)
 
     def __repr__(self) -> str:
         return (

@@ -6,7 +6,7 @@ import numpy as np
 
 from . import _core
 from ._row_filter import positive_float, row_model
-from ._validation import ShapeLike, grid_shape
+from ._validation import ShapeLike, check_memory, grid_shape
 from .ar_field_model import ARFieldModel
 
 
@@ -18,11 +18,20 @@ def wiener_bound(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> flo
     diagonal in U_y ⊗ U_x with entries f_ab = σ²λ_aμ_b σ_θ² / (σ²λ_aμ_b + σ_θ²); the bound is
     their mean. O(H³ + W³) (faer eigendecompositions).
     """
-    h, w = grid_shape(shape, 2)
+    h, w = _checked_grid(shape)
     return _core.wiener_bound(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)
 
 
 def wiener_error_map(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> np.ndarray:
     """Per-pixel error variance of the best linear estimator: (U_y∘U_y) F (U_x∘U_x)ᵀ."""
-    h, w = grid_shape(shape, 2)
+    h, w = _checked_grid(shape)
+    check_memory((h, w), np.dtype(np.float64), copies=2)
     return _core.wiener_map(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)
+
+
+def _checked_grid(shape: ShapeLike) -> tuple[int, int]:
+    """(H, W), refusing grids whose two axis eigenbases (H × H and W × W, with the
+    eigensolver's workspace) exceed the machine's memory (MemoryError)."""
+    h, w = grid_shape(shape, 2)
+    check_memory((h * h + w * w,), np.dtype(np.float64), copies=3)
+    return h, w
