@@ -17,9 +17,10 @@ use crate::stationary_start::AxisRecursion;
 use crate::vector_row_filter::VectorRowFilter;
 use crate::whitening::whiten_axis;
 use crate::wiener_bound::{wiener_bound as bound_kernel, wiener_error_map};
+use numpy::ndarray::Dimension;
 use numpy::{
-    Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+    Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray, PyReadonlyArray1,
+    PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -63,13 +64,7 @@ fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -
 }
 
 fn noise_slice<'a>(noise: &'a Option<PyReadonlyArrayDyn<'_, f64>>) -> PyResult<Option<&'a [f64]>> {
-    noise
-        .as_ref()
-        .map(|n| {
-            n.as_slice()
-                .map_err(|_| PyValueError::new_err("noise must be C-contiguous"))
-        })
-        .transpose()
+    noise.as_ref().map(|n| contiguous(n, "noise")).transpose()
 }
 
 fn seeded_or_given(seed: u64, given: Option<&[f64]>) -> Noise<'_> {
@@ -138,10 +133,7 @@ fn stream_step<T: Real + Element>(
     let arrays = history_slices::<T>(history)?;
     let slices = arrays
         .iter()
-        .map(|a| {
-            a.as_slice()
-                .map_err(|_| PyValueError::new_err("history frames must be C-contiguous"))
-        })
+        .map(|a| contiguous(a, "history frames"))
         .collect::<PyResult<Vec<&[T]>>>()?;
     py.detach(|| {
         with_threads(threads, || {
@@ -177,9 +169,7 @@ impl PyFieldModel {
         py: Python<'py>,
         lags: PyReadonlyArray2<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let lags = lags
-            .as_slice()
-            .map_err(|_| PyValueError::new_err("lags must be C-contiguous"))?;
+        let lags = contiguous(&lags, "lags")?;
         Ok(PyArray1::from_vec(py, self.inner.correlation(lags)?))
     }
 
@@ -263,10 +253,7 @@ impl PyFieldModel {
             .as_ref()
             .map(|v| {
                 v.iter()
-                    .map(|a| {
-                        a.as_slice()
-                            .map_err(|_| PyValueError::new_err("noise must be C-contiguous"))
-                    })
+                    .map(|a| contiguous(a, "noise"))
                     .collect::<PyResult<Vec<&[f64]>>>()
             })
             .transpose()?;
@@ -282,7 +269,10 @@ impl PyFieldModel {
     }
 }
 
-fn contiguous<'a>(a: &'a PyReadonlyArrayDyn<'_, f64>, name: &str) -> PyResult<&'a [f64]> {
+fn contiguous<'a, T: Element, D: Dimension>(
+    a: &'a PyReadonlyArray<'_, T, D>,
+    name: &str,
+) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
 }
@@ -578,10 +568,7 @@ fn axis_correlation_table<'py>(
     order: usize,
     lags: PyReadonlyArray1<'py, f64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let contiguous_error =
-        |name: &str| PyValueError::new_err(format!("{name} must be C-contiguous"));
-    let r = rhos.as_slice().map_err(|_| contiguous_error("rhos"))?;
-    let l = lags.as_slice().map_err(|_| contiguous_error("lags"))?;
+    let (r, l) = (contiguous(&rhos, "rhos")?, contiguous(&lags, "lags")?);
     let table = crate::axis_model::correlation_table(r, order, l)?;
     PyArray1::from_vec(py, table).reshape([r.len(), l.len()])
 }
