@@ -13,9 +13,10 @@
    - for (1,1): SPEC §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
 2. Speed, one thread unless stated, best of 3 (``time.perf_counter``), the per-height plan
    built by a warm-up call and not timed: ``ScalarRowFilter`` on 2048² for (1,1), (2,2),
-   (4,4), causal and smoothed; the NumPy reference ``scalar_row_filter`` against the Rust one
-   on 256²; ``VectorRowFilter`` construction (eigendecomposition) and filter at width 1024;
-   optimal / quasi-optimal time ratio against the width; ``ScalarRowFilter`` set-up
+   (3,3), (4,4), causal and smoothed, and for every (n_y, n_x) ≤ (4, 4); the NumPy
+   reference ``scalar_row_filter`` against the Rust one on 256²; ``VectorRowFilter``
+   construction (eigendecomposition) and filter at width 1024; optimal / quasi-optimal time
+   ratio against the width; ``ScalarRowFilter`` set-up
    (construction + the plan of a 64-row image) with the band from the spliced ends (the
    default ``modes="ends"``) and from the whole row's eigenbasis (``"exact"``) at widths
    1024–4096, with the largest difference of their outputs; a stack of 8 frames of 512² on one
@@ -327,6 +328,33 @@ def scalar_speed(cfg: Config) -> list[str]:
     return lines
 
 
+def every_order_speed(cfg: Config) -> list[str]:
+    """ScalarRowFilter for every multiplicity (n_y, n_x) ≤ (4, 4): Mpixel/s causal / smoothed
+    on speed_size², one thread, best of `repeats` warm calls (plan cached)."""
+    size = cfg.speed_size
+    lines = [
+        f"#### ScalarRowFilter, every multiplicity, {size}² float64, 1 thread "
+        "(Mpixel/s, causal / smoothed)",
+        "",
+        "| n_y \\ n_x | 1 | 2 | 3 | 4 |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for n_y in (1, 2, 3, 4):
+        cells = []
+        for n_x in (1, 2, 3, 4):
+            order = (n_y, n_x)
+            z = noisy_field(order, (size, size))
+            rates = []
+            for smooth in (False, True):
+                model = model_of(order, SPEED_RHO)
+                filt = kf.ScalarRowFilter(model, 1.0, size, smooth=smooth, threads=1)
+                _, best = timed_filter(filt, z, cfg.repeats)
+                rates.append(f"{size * size / best / 1e6:.0f}")
+            cells.append(" / ".join(rates))
+        lines.append(f"| {n_y} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def setup_row(order: tuple[int, int], width: int) -> str:
     """One row of the set-up table: "ends" against "exact" at one width."""
     model, z = model_of(order, SPEED_RHO), noisy_field(order, (64, width))
@@ -548,6 +576,7 @@ def speed_section(cfg: Config) -> str:
     """Section 2: every speed table, measured in fresh processes."""
     parts = [
         isolated(scalar_speed, cfg),
+        isolated(every_order_speed, cfg),
         isolated(reference_speed, cfg.repeats),
         isolated(reference_speed, cfg.repeats, cfg.speed_size),
         isolated(vector_speed, cfg),

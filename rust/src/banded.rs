@@ -146,6 +146,19 @@ impl SymmetricBand {
         }
     }
 
+    /// The band's entries in the storage of bandwidth `b` ≥ its own (zeros beyond it).
+    fn widened(&self, b: usize) -> Vec<f64> {
+        let own = self.bandwidth;
+        if b == own {
+            return self.data.clone();
+        }
+        let mut data = vec![0.0; self.size * (b + 1)];
+        for (i, row) in self.data.chunks_exact(own + 1).enumerate() {
+            data[band_index(b, i, i) - own..=band_index(b, i, i)].copy_from_slice(row);
+        }
+        data
+    }
+
     /// The entries of A⁻¹ within the band (`band_inverse`), from a plain factorisation (no
     /// solve plans: for one-off inverses).
     pub(crate) fn inverse_band(&self) -> Result<SymmetricBand> {
@@ -167,11 +180,14 @@ impl SymmetricBand {
         l
     }
 
-    /// The Cholesky factor L (A = L Lᵀ), same band storage; for the orders solved by
-    /// segments, its interior rows are made exactly periodic (`steady_band`).
+    /// The Cholesky factor L (A = L Lᵀ), in the band storage of the smallest of
+    /// [`FIXED_BANDS`] that holds the band (zeros beyond it: a band factor has no fill
+    /// outside the band; wider bands are kept as they are), so that every bandwidth up to
+    /// 19 gets the unrolled kernels; for the orders solved by segments, its interior rows
+    /// are made exactly periodic (`steady_band`).
     pub fn cholesky(&self) -> Result<BandCholesky> {
-        let (n, b) = (self.size, self.bandwidth);
-        let mut l = self.data.clone();
+        let (n, b) = (self.size, padded_bandwidth(self.bandwidth));
+        let mut l = self.widened(b);
         factor_in_place(&mut l, n, b)?;
         let steady = FIXED_BANDS.contains(&b) && n >= MIN_SEGMENTED && segment_span(n, b) >= 2 * b;
         let snap = if steady {
@@ -209,7 +225,10 @@ impl SymmetricBand {
             blocks: None,
             fused: fused_available(),
         };
-        if let (Some(snap), Some(g)) = (&snap, block_size(b)) {
+        if let Some((snap, g)) = snap
+            .as_ref()
+            .and_then(|s| Some((s, block_size(s.period, b)?)))
+        {
             factor.blocks = SteadyBlocks::new(&factor.data, n, b, g, snap);
         }
         if steady && factor.blocks.is_none() {
@@ -220,6 +239,11 @@ impl SymmetricBand {
         }
         Ok(factor)
     }
+}
+
+/// The smallest of [`FIXED_BANDS`] at least `b`, or `b` beyond them.
+fn padded_bandwidth(b: usize) -> usize {
+    FIXED_BANDS.into_iter().find(|&f| f >= b).unwrap_or(b)
 }
 
 /// Forward then backward substitution with the band factor `l` (1/L_ii in `inv`), no plan
@@ -1275,9 +1299,9 @@ mod tests {
     }
 
     /// (bandwidth, order) pairs: n = 40: one pass; n ≥ 128: the segmented solves, with and
-    /// without a remainder.
+    /// without a remainder; the bandwidths between the fixed ones are stored padded.
     fn test_cases() -> impl Iterator<Item = (usize, usize)> {
-        [1usize, 2, 3, 5, 7, 9, 11, 19]
+        [1usize, 2, 3, 4, 5, 7, 8, 9, 11, 14, 15, 19, 23]
             .into_iter()
             .flat_map(|b| [(b, 40usize), (b, 128), (b, 259), (b, 1000)])
     }
@@ -1393,6 +1417,28 @@ mod tests {
                     let mut w = rhs;
                     lane_major.solve_with::<Plain>(&mut w, Rhs::Dense);
                     assert!(w.iter().zip(&z).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_padded_factor_is_the_factor_of_its_band() {
+        for b in [4usize, 8, 9, 14, 15] {
+            let n = 40;
+            let a = test_matrix(n, b);
+            let own = a.cholesky_unsnapped();
+            let padded = a.cholesky().unwrap();
+            let wide = padded.bandwidth;
+            assert!(FIXED_BANDS.contains(&wide) && wide > b, "b {b}: {wide}");
+            for i in 0..n {
+                for k in i.saturating_sub(wide)..=i {
+                    let expected = if i - k <= b {
+                        own[band_index(b, i, k)]
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(padded.data[band_index(wide, i, k)], expected, "b {b}");
                 }
             }
         }

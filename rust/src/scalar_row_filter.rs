@@ -1024,6 +1024,47 @@ mod tests {
     }
 
     #[test]
+    fn every_wide_order_solves_by_blocks_as_the_plain_substitution_does() {
+        // n_y = 3, 4 with every n_x: B = n_y(m + 1) − 1 = 8, 11, 14, 15, 19 (8, 14 and 15
+        // stored padded to a fixed band), blocks of n_y with K = m blocks per step
+        for (n_y, n_x) in [(3usize, 1usize), (3, 2), (3, 4), (4, 1), (4, 2), (4, 3)] {
+            let model = FieldModel::new(&[0.9, 0.8], &[n_y, n_x], 1.0).unwrap();
+            let filter = ScalarRowFilter::new(&model, 0.7, 512, None, ModeSet::Ends).unwrap();
+            let factor = filter.plan(64).unwrap().factor(64).clone();
+            let blocks = factor.block_plan().expect("a block plan");
+            assert_eq!(
+                (blocks.size(), blocks.reach()),
+                (n_y, n_x.max(2)),
+                "{n_y},{n_x}"
+            );
+            let size = 512 * n_y;
+            let dense: Vec<f64> = (0..size).map(|i| (i as f64 * 0.37).sin()).collect();
+            let observed: Vec<f64> = dense
+                .iter()
+                .enumerate()
+                .map(|(i, v)| if i % n_y == 0 { *v } else { 0.0 })
+                .collect();
+            for (rhs, first_only) in [(dense, false), (observed, true)] {
+                let (mut planned, mut plain) = (rhs.clone(), rhs);
+                if first_only {
+                    factor.solve_observed_in_place(&mut planned, n_y);
+                } else {
+                    factor.solve_in_place(&mut planned);
+                }
+                factor.solve_unplanned(&mut plain);
+                let scale = plain.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let most = planned
+                    .iter()
+                    .zip(&plain)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                // (the two summation orders' rounding, amplified by the systems' condition:
+                // up to ~3e-12 for (3,4))
+                assert!(most < 1e-10 * scale, "{n_y},{n_x} {first_only}: {most:e}");
+            }
+        }
+    }
+
+    #[test]
     fn the_splice_check_refuses_ends_too_short_for_the_edge_effects() {
         // (2,2) at ρ = 0.95: the edge effects of P_e reach ~200 columns, so the ends of a
         // 256-point row (spliced 96 columns from its end) are refused; the first W' from the

@@ -4,8 +4,8 @@
 //! Over the interior made exactly periodic by `steady_band::snap_interior`, L is block
 //! Toeplitz with G × G blocks (G a multiple of the period: G = n, the state order, for the
 //! n = 3, 4 filters): the diagonal block C and the sub-diagonal blocks L_k, k = 1..K,
-//! K = ⌈B/G⌉, or one less when the farthest is zero (A block banded, as the row filters'
-//! systems are). Each substitution is then a recursion on G-vectors:
+//! K = ⌈B/G⌉, or fewer when the farthest are zero (A block banded, as the row filters'
+//! systems are, K = m; the more so when the band is stored padded). Each substitution is then a recursion on G-vectors:
 //!
 //!   forward   y_c = C⁻¹ x_c − Σ_k (C⁻¹ L_k) y_{c−k},
 //!   backward  u_c = C⁻ᵀ y_c − Σ_k (C⁻ᵀ L_kᵀ) u_{c+k},
@@ -13,9 +13,9 @@
 //! each product a few vector multiply-adds (one AVX2 vector per block column). Unlike the
 //! segmented solves of `steady_band`, nothing is corrected afterwards: those redo about B
 //! multiply-adds per position to correct the start of each segment, which doubles the work
-//! of the wide bands (B = 11, 19). The blocks serve the wide bands only (see
-//! [`block_size`]): (2,2) in blocks of four positions ran at 93 Mpixel/s causal against 140
-//! by segments (with two blocks per step too). Each step solves two blocks, the second by a
+//! of the wide bands (B = 11, 19). The blocks serve the n_y = 3, 4 filters only (see
+//! [`block_size`]; every n_x, K = m = 2…4): (2,2) in blocks of four positions ran at 93
+//! Mpixel/s causal against 140 by segments (with two blocks per step too). Each step solves two blocks, the second by a
 //! look-ahead from the same blocks as the first (see [`recursion`]): one block per step was
 //! bound by the latency of its chain through the newest block. What else was tried, and
 //! what it measured: README, "Block solves". The (4,4) factors reach their steady interior
@@ -39,15 +39,25 @@ type Block = [Column; 4];
 /// The fewest blocks the interior must span to be solved by blocks.
 const MIN_BLOCKS: usize = 16;
 
-/// The block size of a bandwidth solved by blocks: the wide bands of the n = 3 and n = 4
-/// row filters (B = 11, 19); None for the others, solved faster by segments.
-pub(crate) fn block_size(b: usize) -> Option<usize> {
-    match b {
-        11 => Some(3),
-        19 => Some(4),
-        _ => None,
+/// The block size G of a factor of bandwidth b whose interior repeats with `period`, if it
+/// is solved by blocks: G = the period when it is 3 or 4 (the n = 3, 4 row filters, every
+/// AR order m ≥ 2 along the row: B = n(m + 1) − 1, stored padded to a fixed bandwidth, see
+/// `banded`), or the old rule for the wide fixed bands (B = 11 in blocks of 3, B = 19 in
+/// blocks of 4) when the period divides it. The narrower periods are solved faster by
+/// segments.
+pub(crate) fn block_size(period: usize, b: usize) -> Option<usize> {
+    if period == 3 || period == 4 {
+        return Some(period);
     }
+    [(11, 3), (19, 4)]
+        .into_iter()
+        .find(|&(band, g)| band == b && g % period == 0)
+        .map(|(_, g)| g)
 }
+
+/// The (G, K) the recursions are compiled for: blocks of 3 and 4, K = 2…4 blocks per
+/// step (m = K for the block-banded row systems), and (4, 5) for a full band B = 19.
+const COMPILED: [(usize, usize); 7] = [(3, 2), (3, 3), (3, 4), (4, 2), (4, 3), (4, 4), (4, 5)];
 
 /// The plan of a block solve over the positions [start, end) (whole blocks).
 #[derive(Debug, Clone, PartialEq)]
@@ -132,9 +142,13 @@ impl SteadyBlocks {
         };
         let inverse = block(0).solve_lower_triangular(&DMatrix::identity(g, g))?;
         let mut blocks: Vec<DMatrix<f64>> = (1..=reach).map(block).collect();
-        // the farthest block is zero when A is block banded (the row filters): left out
-        if blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
+        // the farthest blocks are zero when A is block banded (the row filters; more than
+        // one when the band is stored padded): left out
+        while blocks.last().is_some_and(|m| m.iter().all(|&v| v == 0.0)) {
             blocks.pop();
+        }
+        if !COMPILED.contains(&(g, blocks.len())) {
+            return None;
         }
         let forward = BlockSteps::new(
             inverse.clone(),
@@ -197,11 +211,14 @@ impl SteadyBlocks {
             };
         }
         match (self.size, self.reach()) {
+            (3, 2) => run!(3, 2),
             (3, 3) => run!(3, 3),
             (3, 4) => run!(3, 4),
+            (4, 2) => run!(4, 2),
+            (4, 3) => run!(4, 3),
             (4, 4) => run!(4, 4),
             (4, 5) => run!(4, 5),
-            _ => unreachable!("blocks of 3 (B = 11) or 4 (B = 19) reach ⌈B/G⌉ or one less"),
+            _ => unreachable!("`new` plans only the COMPILED (G, K)"),
         }
     }
 }
@@ -435,7 +452,7 @@ mod tests {
             (true, Rhs::Dense),
             (false, Rhs::FirstOfBlock),
         ];
-        for (g, reach) in [(3usize, 3usize), (3, 4), (4, 4), (4, 5)] {
+        for (g, reach) in COMPILED {
             for count in [20usize, 21] {
                 let plan = random_plan(g, reach, count, (g * 10 + reach + count) as u64);
                 assert_eq!(plan.span(), 0..(count + 2 * reach) * g);
