@@ -1026,17 +1026,24 @@ mod tests {
     #[test]
     fn every_wide_order_solves_by_blocks_as_the_plain_substitution_does() {
         // n_y = 3, 4 with every n_x: B = n_y(m + 1) − 1 = 8, 11, 14, 15, 19 (8, 14 and 15
-        // stored padded to a fixed band), blocks of n_y with K = m blocks per step
-        for (n_y, n_x) in [(3usize, 1usize), (3, 2), (3, 4), (4, 1), (4, 2), (4, 3)] {
+        // stored padded to a fixed band), blocks of n_y with K = m blocks per step; (2,4):
+        // B = 9 padded to 11, blocks of 4 (two columns), K = 2
+        let cases = [
+            (3usize, 1usize),
+            (3, 2),
+            (3, 4),
+            (4, 1),
+            (4, 2),
+            (4, 3),
+            (2, 4),
+        ];
+        for (n_y, n_x) in cases {
             let model = FieldModel::new(&[0.9, 0.8], &[n_y, n_x], 1.0).unwrap();
             let filter = ScalarRowFilter::new(&model, 0.7, 512, None, ModeSet::Ends).unwrap();
             let factor = filter.plan(64).unwrap().factor(64).clone();
             let blocks = factor.block_plan().expect("a block plan");
-            assert_eq!(
-                (blocks.size(), blocks.reach()),
-                (n_y, n_x.max(2)),
-                "{n_y},{n_x}"
-            );
+            let expected = if n_y == 2 { (4, 2) } else { (n_y, n_x.max(2)) };
+            assert_eq!((blocks.size(), blocks.reach()), expected, "{n_y},{n_x}");
             let size = 512 * n_y;
             let dense: Vec<f64> = (0..size).map(|i| (i as f64 * 0.37).sin()).collect();
             let observed: Vec<f64> = dense

@@ -3,9 +3,10 @@
 //!
 //! Over the interior made exactly periodic by `steady_band::snap_interior`, L is block
 //! Toeplitz with G × G blocks (G a multiple of the period: G = n, the state order, for the
-//! n = 3, 4 filters): the diagonal block C and the sub-diagonal blocks L_k, k = 1..K,
-//! K = ⌈B/G⌉, or fewer when the farthest are zero (A block banded, as the row filters'
-//! systems are, K = m; the more so when the band is stored padded). Each substitution is then a recursion on G-vectors:
+//! n = 3, 4 filters, G = 4 for n = 2): the diagonal block C and the sub-diagonal blocks
+//! L_k, k = 1..K, K = ⌈B/G⌉, or fewer when the farthest are zero (A block banded, as the
+//! row filters' systems are, and the more so when the band is stored padded; K = m for
+//! G = n). Each substitution is then a recursion on G-vectors:
 //!
 //!   forward   y_c = C⁻¹ x_c − Σ_k (C⁻¹ L_k) y_{c−k},
 //!   backward  u_c = C⁻ᵀ y_c − Σ_k (C⁻ᵀ L_kᵀ) u_{c+k},
@@ -13,14 +14,15 @@
 //! each product a few vector multiply-adds (one AVX2 vector per block column). Unlike the
 //! segmented solves of `steady_band`, nothing is corrected afterwards: those redo about B
 //! multiply-adds per position to correct the start of each segment, which doubles the work
-//! of the wide bands (B = 11, 19). The blocks serve the n_y = 3, 4 filters only (see
-//! [`block_size`]; every n_x, K = m = 2…4): (2,2) in blocks of four positions ran at 93
-//! Mpixel/s causal against 140 by segments (with two blocks per step too). Each step solves two blocks, the second by a
-//! look-ahead from the same blocks as the first (see [`recursion`]): one block per step was
-//! bound by the latency of its chain through the newest block. What else was tried, and
-//! what it measured: README, "Block solves". The (4,4) factors reach their steady interior
-//! only through the 1e-8 snap of `steady_band`. The positions before and after the block
-//! interior are substituted one at a time with the factor's own coefficients.
+//! of the wide bands (B = 11, 19). The blocks serve the n_y = 3, 4 filters (every n_x,
+//! K = m = 2…4) and the n_y = 2 ones with m ≥ 4 (see [`block_size`]): (2,2) in blocks of
+//! four positions ran at 93 Mpixel/s causal against 140 by segments (with two blocks per
+//! step too). Each step solves two blocks, the second by a look-ahead from the same blocks
+//! as the first (see [`recursion`]): one block per step was bound by the latency of its
+//! chain through the newest block. What else was tried, and what it measured:
+//! benches/ROW_FILTER_NOTES.md, "Block solves". The (4,4) factors reach their steady
+//! interior only through the 1e-8 snap of `steady_band`. The positions before and after
+//! the block interior are substituted one at a time with the factor's own coefficients.
 
 use std::ops::Range;
 
@@ -42,12 +44,16 @@ const MIN_BLOCKS: usize = 16;
 /// The block size G of a factor of bandwidth b whose interior repeats with `period`, if it
 /// is solved by blocks: G = the period when it is 3 or 4 (the n = 3, 4 row filters, every
 /// AR order m ≥ 2 along the row: B = n(m + 1) − 1, stored padded to a fixed bandwidth, see
-/// `banded`), or the old rule for the wide fixed bands (B = 11 in blocks of 3, B = 19 in
-/// blocks of 4) when the period divides it. The narrower periods are solved faster by
-/// segments.
+/// `banded`), G = 4 for period 2 beyond B = 7 (the n = 2 filters with m ≥ 4: (2,4) ran
+/// 1.55× faster than by segments; with m = 3, B = 7, no faster), or the old rule for the
+/// wide fixed bands (B = 11 in blocks of 3, B = 19 in blocks of 4) when the period divides
+/// it. The narrower bands are solved faster by segments.
 pub(crate) fn block_size(period: usize, b: usize) -> Option<usize> {
     if period == 3 || period == 4 {
         return Some(period);
+    }
+    if period == 2 && b > 7 {
+        return Some(4);
     }
     [(11, 3), (19, 4)]
         .into_iter()
