@@ -55,6 +55,9 @@ MODEL = kf.ARFieldModel([0.8, 0.7], [2, 1])
         ((5,), ValueError, "axes"),
         ((5, 5, 5), ValueError, "axes"),
         ((5.0, 5), TypeError, "integer"),
+        (None, TypeError, "sequence of ints"),
+        (5.0, TypeError, "sequence of ints"),
+        ("55", TypeError, "sequence of ints"),
         ((10**7, 10**7), MemoryError, "GiB"),
     ],
 )

@@ -336,7 +336,7 @@ def test_bad_input():
     noisy = np.random.default_rng(0).standard_normal((8, 8))
     with pytest.raises(ValueError, match="window"):
         kf.denoise(noisy, window=4)
-    with pytest.raises(ValueError, match="2 axes"):
+    with pytest.raises(ValueError, match="2-axis"):
         kf.denoise(noisy, model=kf.ARFieldModel([0.7], [1]))
     holes = np.where(noisy > 1, np.nan, noisy)
     with pytest.raises(ValueError, match="NaN"):

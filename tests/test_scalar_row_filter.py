@@ -413,6 +413,9 @@ def test_estimate_noise_var_and_model_from_noisy():
     assert noise == pytest.approx(0.25, abs=0.05)
     assert all(0.8 < r < 0.97 for r in fitted.rho)
     assert fitted.sigma**2 == pytest.approx(1.0, rel=0.3)
+    # a noise-free ramp: the fit takes more than the sample variance; the noise is floored at 0
+    ramp = np.add.outer(np.arange(6.0), np.arange(6.0) ** 2)
+    assert kf.model_from_noisy(ramp)[2] == 0.0
 
 
 def test_denoise_reduces_the_error_close_to_the_model_bound():
@@ -446,6 +449,16 @@ def test_blind_stationary_denoise_loses_nothing_to_the_toeplitz_modes():
     assert got < 0.4 * 0.01
 
 
+def test_an_empty_stack_gives_an_empty_result():
+    z = np.zeros((0, 4, 8), dtype=np.float32)
+    for got in (
+        kf.denoise(z),
+        kf.denoise(z, adaptive=False),
+        kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.8], [1, 2]), 1.0, 8).filter(z),
+    ):
+        assert got.shape == z.shape and got.dtype == np.float64
+
+
 @pytest.mark.parametrize(
     "call,exc,match",
     [
@@ -465,8 +478,18 @@ def test_blind_stationary_denoise_loses_nothing_to_the_toeplitz_modes():
             "constant",
         ),
         (lambda m: kf.denoise(np.ones(8)), ValueError, "image"),
+        (lambda m: kf.denoise(3.0), ValueError, "image"),
+        (lambda m: kf.denoise(None), TypeError, "None"),
+        (lambda m: kf.denoise(np.eye(8), model="ar"), TypeError, "ARFieldModel"),
+        (lambda m: kf.denoise(np.eye(8), model=kf.ARFieldModel(0.5, 1)), ValueError, "2-axis"),
+        (lambda m: kf.denoise(np.zeros((0, 4, 8)), noise_var=-1.0), ValueError, "noise_var"),
+        (lambda m: kf.ScalarRowFilter(m, 1.0, 8, mean=np.nan), ValueError, "mean"),
+        (lambda m: kf.VectorRowFilter(m, 1.0, 8, mean="0"), TypeError, "mean"),
         (lambda m: kf.denoise(np.eye(8), method="fft"), ValueError, "method"),
         (lambda m: kf.estimate_noise_var(np.ones(5)), ValueError, "2×2"),
+        (lambda m: kf.estimate_noise_var(np.ones((4, 4), bool)), TypeError, "real"),
+        (lambda m: kf.estimate_noise_var(np.ones((0, 4, 4))), ValueError, "2×2"),
+        (lambda m: kf.model_from_noisy(np.ones((0, 4, 4))), ValueError, "no frames"),
         (lambda m: kf.estimate_noise_var(np.full((4, 4), np.inf)), ValueError, "infinite"),
         (lambda m: kf.ScalarRowFilter(m, 1.0, 8).error_variance(0), ValueError, "height"),
         (lambda m: kf.ScalarRowFilter(m, 1.0, 8).error_variance(2.5), TypeError, "height"),

@@ -7,7 +7,7 @@ import numbers
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_int, real_array
+from ._validation import positive_int, real_array, real_number
 from .ar_field_model import ARFieldModel
 
 
@@ -31,18 +31,21 @@ def positive_float(value: object, name: str) -> float:
     return float(value)
 
 
-def images(z: npt.ArrayLike, width: int, missing: bool = False, finite: bool = True) -> np.ndarray:
-    """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns.
-    uint8/uint16/int/float32 inputs are converted; bool and complex are refused; infinite
-    pixels are refused, and NaN pixels too unless `missing` (NaN = missing observation).
+def images(
+    z: npt.ArrayLike, width: int | None = None, missing: bool = False, finite: bool = True
+) -> np.ndarray:
+    """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns (None:
+    any width). uint8/uint16/int/float32 inputs are converted; None, bool and complex are
+    refused; infinite pixels are refused, and NaN pixels too unless `missing` (NaN = missing
+    observation).
     finite=False skips the pixel check (for callers whose kernel checks every pixel)."""
     arr = real_array(z, "images")
     if arr.ndim not in (2, 3):
         raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
-    if arr.shape[-1] != width:
+    if width is not None and arr.shape[-1] != width:
         raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
-    if arr.shape[-2] == 0:
-        raise ValueError("the images have no rows")
+    if arr.shape[-2] == 0 or arr.shape[-1] == 0:
+        raise ValueError(f"the images have no {'rows' if arr.shape[-2] == 0 else 'columns'}")
     if not finite or np.isfinite(arr.sum()):  # the fast path
         return arr
     if missing and not np.isinf(arr).any():
@@ -68,7 +71,7 @@ class RowFilter:
         self._noise_var = positive_float(noise_var, "noise_var")
         self._width = positive_int(width, "width")
         self._smooth = bool(smooth)
-        self._mean = float(mean)
+        self._mean = real_number(mean, "mean")
         self._threads = None if threads is None else positive_int(threads, "threads")
 
     @property

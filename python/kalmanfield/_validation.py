@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numbers
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any, Union
 
 import numpy as np
@@ -69,7 +69,10 @@ def probability(value: Any, name: str) -> float:
 
 
 def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
-    """`value` as a C-contiguous float64 array; bool, complex and non-numeric input refused."""
+    """`value` as a C-contiguous float64 array (at least 1-D); None, bool, complex and
+    non-numeric input refused."""
+    if value is None:
+        raise TypeError(f"{name} must be an array, got None")
     raw = np.asarray(value)
     if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
         raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
@@ -81,7 +84,12 @@ def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
 
 def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, ...]:
     """A shape of `ndim` positive ints."""
-    items = (shape,) if isinstance(shape, numbers.Integral) else tuple(shape)
+    if isinstance(shape, numbers.Integral):
+        items: tuple = (shape,)
+    elif isinstance(shape, (str, bytes)) or not isinstance(shape, Iterable):
+        raise TypeError(f"{name} must be an int or a sequence of ints, got {shape!r}")
+    else:
+        items = tuple(shape)
     dims = tuple(positive_int(s, f"every entry of {name}") for s in items)
     if len(dims) != ndim:
         raise ValueError(f"{name} {dims} has {len(dims)} axes but the model has {ndim}")

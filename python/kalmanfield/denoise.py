@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._row_filter import images, positive_float
+from ._row_filter import images, positive_float, row_model
+from ._validation import real_array
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
 from .scalar_row_filter import ScalarRowFilter
@@ -26,7 +27,7 @@ def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.nda
     at the borders), for an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
     NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
     box holds none."""
-    z = images(image, np.shape(image)[-1], missing=True)
+    z = images(image, missing=True)
     _odd_window(window)
     mean, var = np.empty_like(z), np.empty_like(z)
     _core.local_moments_into(z, int(window) // 2, mean, var)
@@ -47,8 +48,8 @@ def estimate_noise_var(image: npt.ArrayLike) -> float:
     pooled over the frames of a stack. Blocks with a NaN (missing) or infinite pixel are left
     out.
     Rust kernel (``rust/src/noise_level.rs``; NumPy twin ``reference.noise_level``)."""
-    z = np.asarray(image, dtype=np.float64)
-    if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2:
+    z = real_array(image, "image")
+    if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2 or z.size == 0:
         raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
     stack = np.ascontiguousarray(z.reshape(-1, *z.shape[-2:]))
     return _core.haar_noise_var(stack)
@@ -61,11 +62,14 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     model's σ² R_{n,ρ}(h) is fitted by least squares to the sample autocovariance at lags
     h = 1..12 (pooled over all lines, Rust kernel), for every n = 1..max_order and ρ; the best
     (n, ρ) per axis wins, σ² is the mean of the per-axis fits and the noise variance is the
-    lag-0 autocovariance minus σ². ``identify`` is the better tool for noise-free data.
+    lag-0 autocovariance minus σ², floored at 0 (a smooth, noise-free image can give the
+    fit more variance than the sample holds). ``identify`` is the better tool for noise-free data.
     NaN pixels are missing: left out of the mean and of every lagged product.
     """
-    z = images(image, np.shape(image)[-1], missing=True)
+    z = images(image, missing=True)
     stack = z.reshape(-1, *z.shape[-2:])
+    if stack.size == 0:
+        raise ValueError("the stack has no frames: there is no model to fit")
     if np.isnan(stack).all():
         raise ValueError("every pixel is NaN (missing): there is no model to fit")
     mean = float(np.nanmean(stack))
@@ -74,7 +78,7 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
         raise ValueError("the image is constant: there is no model to fit")
     fits = [_fit_axis(centred, axis, max_order) for axis in (1, 2)]
     variance = float(np.mean([f[2] for f in fits]))
-    noise = float(np.nanmean(centred**2)) - variance
+    noise = max(float(np.nanmean(centred**2)) - variance, 0.0)
     model = ARFieldModel([f[0] for f in fits], [f[1] for f in fits], sigma=np.sqrt(variance))
     return model, mean, noise
 
@@ -154,7 +158,8 @@ def denoise(
     threads : threads for the frames of a stack (None: all cores). In the adaptive mode a
         single image runs on the calling thread (GIL released) whatever `threads` says: its
         kernel has no parallel part, and the thread keeps its scratch buffers between calls.
-    Returns float64 of the image's shape. uint8/uint16/float inputs are accepted.
+    Returns float64 of the image's shape (an empty stack, (0, H, W), gives an empty one).
+    uint8/uint16/float inputs are accepted.
     NaN pixels are missing observations (method="scalar"): left out of the noise estimate,
     the model fit and the box moments, given weight 0 by the filter and filled by its
     estimate from the neighbouring pixels (a box without an observed pixel is widened,
@@ -165,12 +170,18 @@ def denoise(
     adaptive = method == "scalar" if adaptive is None else bool(adaptive)
     if adaptive and method == "vector":
         raise ValueError("adaptive denoising needs method='scalar' (per-pixel noise variances)")
-    z = images(image, np.shape(image)[-1], missing=method == "scalar")
+    z = images(image, missing=method == "scalar")
+    nv = None if noise_var is None else positive_float(noise_var, "noise_var")
+    if model is not None:
+        row_model(model)
+    if z.size == 0:  # a stack of no frames
+        return z.copy()
     if np.isnan(z.flat[0]) and np.isnan(z).all():  # (a pass only if the first pixel is NaN)
         raise ValueError("every pixel is NaN (missing): there is nothing to denoise")
-    nv = estimate_noise_var(z) if noise_var is None else positive_float(noise_var, "noise_var")
-    if not nv > 0:
-        raise ValueError("the estimated noise variance is 0: the image looks noise-free")
+    if nv is None:
+        nv = estimate_noise_var(z)
+        if not nv > 0:
+            raise ValueError("the estimated noise variance is 0: the image looks noise-free")
     if adaptive:
         return _adaptive(z, nv, DETAIL_MODEL if model is None else model, window, smooth, threads)
     modes = "ends"
@@ -195,8 +206,6 @@ def _adaptive(
     normalisation, weighted :class:`ScalarRowFilter` with Toeplitz modes), frames in
     parallel, each with its own nominal noise ratio."""
     _odd_window(window)
-    if model.ndim != 2:
-        raise ValueError(f"the detail model must have 2 axes (rows, columns), got {model.ndim}")
     out = np.empty_like(z)
     _core.adaptive_denoise_into(z, nv, model._core, int(window) // 2, smooth, out, threads)
     return out

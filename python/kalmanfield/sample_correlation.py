@@ -72,6 +72,8 @@ def _max_lags(max_lag: LagLike, shape: tuple[int, ...]) -> tuple[int, ...]:
     for k, (lag, n) in enumerate(zip(items, shape)):
         if isinstance(lag, (bool, np.bool_)) or not isinstance(lag, numbers.Integral):
             raise TypeError(f"max_lag must hold integers, got {lag!r}")
+        if n == 0:
+            raise ValueError(f"the data have no pixels along axis {k}")
         if not 0 <= int(lag) < n:
             raise ValueError(f"max_lag {int(lag)} of axis {k} must lie in [0, {n - 1}]")
         lags.append(int(lag))
