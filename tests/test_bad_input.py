@@ -66,6 +66,20 @@ def test_bad_shapes(shape, exc, match):
         MODEL.sample(shape, seed=0)
 
 
+def test_a_stationary_start_beyond_float64_is_refused_not_nan():
+    # ρ = 0.99 with multiplicity 8: a prediction error of the start rounds to < 0 (every
+    # sample was NaN); the model itself stays usable (correlation, identification results)
+    model = kf.ARFieldModel([0.99, 0.5], [8, 1])
+    assert np.isfinite(model.correlation([[0, 0], [5, 0]])).all()
+    with pytest.raises(ValueError, match="beyond float64"):
+        model.sample((16, 16), seed=0)
+    with pytest.raises(ValueError, match="beyond float64"):
+        kf.sample_product_field(model, (16, 16), seed=0)
+    with pytest.raises(ValueError, match="beyond float64"):
+        kf.FieldStream(kf.ARFieldModel([0.5, 0.99, 0.5], [1, 8, 1]), (8, 8), seed=0).next_frame()
+    assert np.isfinite(kf.ARFieldModel([0.99, 0.5], [4, 1]).sample((16, 16), seed=0)).all()
+
+
 def test_bad_noise():
     with pytest.raises(ValueError, match="shape"):
         MODEL.sample((4, 5), noise=np.zeros((5, 4)))

@@ -44,6 +44,21 @@ def test_equals_brute_force_gls(order, smooth):
     np.testing.assert_allclose(f.error_variance(8), want_var, atol=1e-10)
 
 
+def test_smoother_stays_the_posterior_mean_for_slowly_decaying_rows():
+    # n_y = 4, ρ = 0.99, σ_θ² = 1e-4: P_e of the high-variance modes has a condition of ~1e12.
+    # The Riccati update P_e − k (P_e)_h· let P drift from symmetric and P_e round to
+    # indefinite; the smoother gain then vanished (errors up to 0.47 σ_θ, map 2.4× the bound).
+    model, noise_var, shape = kf.ARFieldModel([0.99, 0.99], [4, 1]), 1e-4, (40, 24)
+    _, z = noisy(model, shape, noise_var, 1)
+    want, _ = ref.brute_force_kalman(z, model.rho, model.order, 1.0, noise_var, smooth=True)
+    twin, _ = ref.vector_row_filter(z, model.rho, model.order, 1.0, noise_var, smooth=True)
+    f = kf.VectorRowFilter(model, noise_var, shape[1], smooth=True)
+    np.testing.assert_allclose(f.filter(z), want, atol=1e-3 * np.sqrt(noise_var))
+    np.testing.assert_allclose(twin, want, atol=1e-3 * np.sqrt(noise_var))
+    bound = kf.wiener_error_map(model, noise_var, shape)
+    np.testing.assert_allclose(f.error_variance(shape[0]), bound, rtol=1e-3)
+
+
 def test_error_variance_matches_monte_carlo():
     # per-pixel MSE over R realisations has standard error ≈ var·√(2/R) (Gaussian errors)
     model = kf.ARFieldModel([0.9, 0.8], [2, 1])

@@ -225,10 +225,10 @@ impl SymmetricBand {
             blocks: None,
             fused: fused_available(),
         };
-        if let Some((snap, g)) = snap
+        let block = snap
             .as_ref()
-            .and_then(|s| Some((s, block_size(s.period, b)?)))
-        {
+            .and_then(|s| block_size(s.period, b).map(|g| (s, g)));
+        if let Some((snap, g)) = block {
             factor.blocks = SteadyBlocks::new(&factor.data, n, b, g, snap);
         }
         if steady && factor.blocks.is_none() {

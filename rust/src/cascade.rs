@@ -35,7 +35,7 @@ pub fn sample_into<T: Real>(
 ) -> Result<()> {
     check_grid(model.ndim(), out.len(), shape, "shape")?;
     check_noise(&noise, out.len())?;
-    let recursions = model.recursions::<T>();
+    let recursions = model.recursions::<T>()?;
     generate(out, shape, &recursions, &noise, 0);
     Ok(())
 }
@@ -56,7 +56,7 @@ pub fn stream_frame_into<T: Real>(
         ));
     }
     check_grid(model.ndim() - 1, frame.len(), frame_shape, "frame_shape")?;
-    let recursions = model.recursions::<T>();
+    let recursions = model.recursions::<T>()?;
     let needed = (t as usize).min(recursions[0].order());
     if history.len() < needed || history.iter().any(|h| h.len() != frame.len()) {
         return Err(FieldError::Shape(format!(

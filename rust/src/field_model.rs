@@ -111,7 +111,7 @@ impl FieldModel {
 
     /// The stationary-start recursions of all axes; σ is folded into axis 0, the one the
     /// cascade applies last.
-    pub fn recursions<T: Float>(&self) -> Vec<AxisRecursion<T>> {
+    pub fn recursions<T: Float>(&self) -> Result<Vec<AxisRecursion<T>>> {
         self.axes
             .iter()
             .enumerate()

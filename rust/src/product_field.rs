@@ -46,7 +46,7 @@ pub fn product_field_into<T: Real>(
         .enumerate()
         .map(|(k, (axis, &len))| {
             let mut s = vec![0.0; len];
-            let recursion = AxisRecursion::new(axis, 1.0);
+            let recursion = AxisRecursion::new(axis, 1.0)?;
             let noise = match given {
                 Some(g) => Noise::Given {
                     values: g[k],
@@ -55,9 +55,9 @@ pub fn product_field_into<T: Real>(
                 None => Noise::Seeded(seed),
             };
             lines_into(&mut s, len, &recursion, &noise, k as u64);
-            s
+            Ok(s)
         })
-        .collect();
+        .collect::<Result<_>>()?;
     // outer product of axes 1.. (the slab), then one scaled copy per index of axis 0
     let mut slab = vec![1.0f64];
     for s in &sequences[1..] {

@@ -185,7 +185,7 @@ impl PyFieldModel {
             .axes()
             .get(axis)
             .ok_or_else(|| PyValueError::new_err(format!("axis {axis} out of range")))?;
-        let rec = AxisRecursion::<f64>::new(model, 1.0);
+        let rec = AxisRecursion::<f64>::new(model, 1.0)?;
         let n = rec.order();
         Ok((0..=n).map(|l| (rec.at(l).0.to_vec(), rec.at(l).1)).unzip())
     }

@@ -6,6 +6,7 @@
 //! factor of that matrix applied to white noise).
 
 use crate::axis_model::AxisModel;
+use crate::error::{FieldError, Result};
 use num_traits::Float;
 
 /// Per-position coefficients of the stationary-start recursion of one axis.
@@ -20,21 +21,36 @@ pub struct AxisRecursion<T> {
 
 impl<T: Float> AxisRecursion<T> {
     /// Builds the recursion of `axis` with every gain multiplied by `scale` (σ_x for the axis
-    /// that is applied last, 1 otherwise).
-    pub fn new(axis: &AxisModel, scale: f64) -> Self {
+    /// that is applied last, 1 otherwise). Refused (InvalidParameter) when a prediction error
+    /// of orders 0..n − 1 of the start rounds to ≤ 0 (order n's is the analytic β̃²):
+    /// successive elements correlate too closely for float64 (e.g. ρ = 0.99 with
+    /// multiplicity 8), and its square root would be NaN.
+    pub fn new(axis: &AxisModel, scale: f64) -> Result<Self> {
         let n = axis.order();
         let (mut coeffs, mut errors) = levinson(axis);
         // The order-n fit is the model itself: use the analytic values, not rounded ones.
         coeffs[n] = axis.ar_coefficients();
         errors[n] = axis.beta_tilde_sq();
+        if let Some((m, e)) = errors
+            .iter()
+            .enumerate()
+            .find(|(_, e)| e.is_nan() || **e <= 0.0)
+        {
+            return Err(FieldError::InvalidParameter(format!(
+                "the exactly stationary start of an axis with rho = {} and multiplicity {n} is \
+                 beyond float64: its order-{m} prediction error rounds to {e:.1e} (successive \
+                 elements correlate too closely); lower rho or the multiplicity",
+                axis.rho()
+            )));
+        }
         let cast = |v: f64| T::from(v).expect("f64 converts to every float type");
-        Self {
+        Ok(Self {
             coeffs: coeffs
                 .into_iter()
                 .map(|c| c.into_iter().map(cast).collect())
                 .collect(),
             gains: errors.into_iter().map(|e| cast(scale * e.sqrt())).collect(),
-        }
+        })
     }
 
     /// The multiplicity n of the axis.
@@ -83,11 +99,21 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_start_beyond_float64_is_refused() {
+        // ρ = 0.99, n = 8: the order-7 prediction error rounds to −4e-15 (its square root was
+        // NaN, and so was every sample); n = 4 still has positive errors
+        let refused = AxisRecursion::<f64>::new(&AxisModel::new(0.99, 8).unwrap(), 1.0);
+        assert!(matches!(refused, Err(FieldError::InvalidParameter(m)) if m.contains("float64")));
+        let rec = AxisRecursion::<f64>::new(&AxisModel::new(0.99, 4).unwrap(), 1.0).unwrap();
+        assert!((0..=4).all(|l| rec.at(l).1 > 0.0 && rec.at(l).0.iter().all(|c| c.is_finite())));
+    }
+
     /// The recursion written as a lower-triangular matrix L must satisfy L Lᵀ = Toeplitz(R).
     #[test]
     fn recursion_is_cholesky_of_toeplitz() {
         let axis = AxisModel::new(0.7, 3).unwrap();
-        let rec = AxisRecursion::<f64>::new(&axis, 1.0);
+        let rec = AxisRecursion::<f64>::new(&axis, 1.0).unwrap();
         let len = 9;
         // column j of L = response of the recursion to a unit impulse at j
         let columns: Vec<Vec<f64>> = (0..len)

@@ -112,7 +112,11 @@ impl VectorRowFilter {
         for i in self.dynamics.order..MAX_ROW_ORDER {
             padded[(i, i)] = 1.0;
         }
-        let rhs = self.dynamics.transition * filtered; // F P; Jᵀ = P_e⁻¹ F P
+        // Jᵀ = P_e⁻¹ F P. A P_e that rounds to indefinite (n_y = 4 with ρ_y ≥ 0.995: the prior
+        // of 4 rows has a condition ≥ 1e15) gets J = 0: that mode keeps its filtered value,
+        // and the error map, made with the same J, says so (an LU solve there gave J from
+        // rounding noise).
+        let rhs = self.dynamics.transition * filtered;
         match padded.cholesky() {
             Some(ch) => ch.solve(&rhs).transpose(),
             None => Small::zeros(),
@@ -398,11 +402,13 @@ impl RowDynamics {
         } else {
             let mut p = self.transition * previous * self.transition.transpose();
             p[(0, 0)] += self.innovation;
-            p
+            (p + p.transpose()) * 0.5
         };
         let h = self.observed(t);
-        let gain = predicted.column(h) / (predicted[(h, h)] + ratio);
-        let filtered = predicted - gain * predicted.row(h);
+        // P − c cᵀ / s (c = P e_h) keeps P exactly symmetric; the row-times-column form drifted
+        // apart by rounding and made P_e indefinite for ill-conditioned modes (ρ ≥ 0.99).
+        let c = predicted.column(h).into_owned();
+        let filtered = predicted - (c * c.transpose()) / (predicted[(h, h)] + ratio);
         ModeCovariance {
             predicted,
             filtered,

@@ -244,9 +244,12 @@ def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact", sp
     for predict, i in row_schedule(n, height):
         if predict:
             p = a @ p @ a.T + lam[:, None, None] * q
+            p = 0.5 * (p + p.transpose(0, 2, 1))
         pe = p
-        gain = pe[:, :, i] / (pe[:, i, i] + noise_var)[:, None]
-        p = pe - gain[:, :, None] * pe[:, i, None, :]
+        s = pe[:, i, i] + noise_var
+        gain = pe[:, :, i] / s[:, None]
+        # P_e − c cᵀ/s, c = P_e e_i: exactly symmetric (P_e rounds to indefinite otherwise)
+        p = pe - pe[:, :, i, None] * pe[:, None, :, i] / s[:, None, None]
         steps.append({"pe": pe, "pf": p, "gain": gain})
     return lam, u, steps
 
@@ -297,7 +300,7 @@ def vector_row_filter(z, rho, order, sigma, noise_var, smooth=False):
     if smooth:
         for t in range(height - 2, t0 - 1, -1):
             pf, pe = steps[t]["pf"], steps[t + 1]["pe"]
-            j = np.linalg.solve(pe, a @ pf).transpose(0, 2, 1)  # J = P_f Aᵀ P_e⁻¹ (symmetric P)
+            j = smoother_gains(pf, pe, a)
             means[t] = filt[t] + np.einsum("jab,jbk->jak", j, means[t + 1] - pred[t + 1])
             covs[t] = pf + j @ (covs[t + 1] - pe) @ j.transpose(0, 2, 1)
         for t in range(t0):
@@ -308,6 +311,20 @@ def vector_row_filter(z, rho, order, sigma, noise_var, smooth=False):
         est[t] = u @ means[t][:, i, :]
         var[t] = (u**2) @ covs[t][:, i, i]
     return (est[..., 0] if single else est), var
+
+
+def smoother_gains(pf: np.ndarray, pe: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """J = P_f Aᵀ P_e⁻¹ per mode (symmetric P), by Cholesky; J = 0 for a mode whose P_e is not
+    numerically positive definite (that mode keeps its filtered value), as in Rust."""
+    rhs = a @ pf
+    j = np.zeros_like(pf)
+    for k in range(pe.shape[0]):
+        try:
+            low = np.linalg.cholesky(pe[k])
+        except np.linalg.LinAlgError:
+            continue
+        j[k] = np.linalg.solve(low.T, np.linalg.solve(low, rhs[k])).T
+    return j
 
 
 def vector_error_map(rho, order, sigma, noise_var, shape, smooth=False) -> np.ndarray:
