@@ -209,6 +209,7 @@ def test_constant_lines_and_trends():
         (lambda: kf.sample_correlation(np.full(10, np.nan), 2), ValueError, "no valid"),
         (lambda: kf.yule_walker(np.ones((5, 5, 5)), (1, 1)), ValueError, "2-D"),
         (lambda: kf.sample_correlation(np.zeros((0, 5)), 2), ValueError, "no pixels"),
+        (lambda: kf.yule_walker(_RNG.random((30, 30)) * 1e300), ValueError, "overflows"),
         (lambda: kf.yule_walker(_RNG.random((3, 30)), (2, 1)), ValueError, "too small"),
         (lambda: kf.yule_walker(_RNG.random((30, 30)), (0, 0)), ValueError, "no coefficient"),
         (lambda: kf.yule_walker(_RNG.random((30, 30)), (1,)), ValueError, "pair"),

@@ -79,6 +79,15 @@ def test_fft_sample_correlation_matches_direct_sums(x, unbiased, data):
     np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-9)
 
 
+def test_sample_correlation_is_scale_free():
+    # computed in units of the data's peak: values of 1e200 (squares overflow) or 1e-200
+    # (squares underflow) give the correlation of the same data at unit scale
+    x = kf.ARFieldModel([0.9, 0.8], [2, 1]).sample((40, 30), seed=2)
+    want = kf.sample_correlation(x, (3, 4))
+    for scale in (1e-200, 1e200):
+        np.testing.assert_allclose(kf.sample_correlation(x * scale, (3, 4)), want, atol=1e-12)
+
+
 def test_mask_masked_array_and_nan_agree():
     rng = np.random.default_rng(1)
     x = rng.standard_normal((30, 40)).cumsum(axis=1)

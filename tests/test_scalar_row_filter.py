@@ -413,6 +413,15 @@ def test_estimate_noise_var_and_model_from_noisy():
     assert noise == pytest.approx(0.25, abs=0.05)
     assert all(0.8 < r < 0.97 for r in fitted.rho)
     assert fitted.sigma**2 == pytest.approx(1.0, rel=0.3)
+    # the fit is made in units of the image's peak: any scale gives the same model
+    for scale in (1e-150, 1e150):
+        big, big_mean, big_noise = kf.model_from_noisy(z * scale)
+        np.testing.assert_allclose(big.rho, fitted.rho, rtol=1e-9)
+        assert big.order == fitted.order
+        assert big.sigma == pytest.approx(fitted.sigma * scale, rel=1e-9)
+        assert big_noise == pytest.approx(noise * scale**2, rel=1e-9)
+    with pytest.raises(ValueError, match="overflows"):
+        kf.model_from_noisy(z * 1e300)
     # a noise-free ramp: the fit takes more than the sample variance; the noise is floored at 0
     ramp = np.add.outer(np.arange(6.0), np.arange(6.0) ** 2)
     assert kf.model_from_noisy(ramp)[2] == 0.0

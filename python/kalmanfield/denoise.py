@@ -74,11 +74,17 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
         raise ValueError("every pixel is NaN (missing): there is no model to fit")
     mean = float(np.nanmean(stack))
     centred = np.ascontiguousarray(stack - mean)
-    if not np.nanmax(np.abs(centred)) > 0:
+    peak = np.nanmax(np.abs(centred))  # a NumPy float: peak² of 1e300 is inf, not an error
+    if not peak > 0:
         raise ValueError("the image is constant: there is no model to fit")
+    centred /= peak  # the fit in units of the peak: squares of 1e160s would overflow
     fits = [_fit_axis(centred, axis, max_order) for axis in (1, 2)]
     variance = float(np.mean([f[2] for f in fits]))
-    noise = max(float(np.nanmean(centred**2)) - variance, 0.0)
+    with np.errstate(over="ignore"):
+        noise = float(max(float(np.nanmean(centred**2)) - variance, 0.0) * peak**2)
+        variance = float(variance * peak**2)
+    if not np.isfinite(variance):
+        raise ValueError("the image's variance overflows float64: rescale it")
     model = ARFieldModel([f[0] for f in fits], [f[1] for f in fits], sigma=np.sqrt(variance))
     return model, mean, noise
 

@@ -48,6 +48,9 @@ def sample_correlation(
     if n_valid == 0:
         raise ValueError("data have no valid (finite, unmasked) pixel")
     centred = np.where(valid, values - values[valid].mean(), 0.0)
+    peak = np.max(np.abs(centred))
+    if peak > 0:  # the ratio does not depend on the scale; products of 1e160s overflow
+        centred /= peak
     sums = _lagged_sums(centred, centred, lags)
     if valid.all():
         pairs = _full_grid_pairs(values.shape, lags)

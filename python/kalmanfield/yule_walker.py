@@ -63,7 +63,10 @@ def yule_walker(
     if values.shape[0] <= 2 * n_y or values.shape[1] <= 2 * n_x:
         raise ValueError(f"an image of shape {values.shape} is too small for order {(n_y, n_x)}")
     correlation = sample_correlation(values, (n_y, n_x))
-    variance = float(np.var(values[valid]))
+    with np.errstate(over="ignore"):
+        variance = float(np.var(values[valid]))
+    if not np.isfinite(variance):
+        raise ValueError("the data's variance overflows float64: rescale them")
     return yule_walker_from_covariance(variance * correlation, float(values[valid].mean()))
 
 
