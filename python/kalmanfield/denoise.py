@@ -80,9 +80,10 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     centred /= peak  # the fit in units of the peak: squares of 1e160s would overflow
     fits = [_fit_axis(centred, axis, max_order) for axis in (1, 2)]
     variance = float(np.mean([f[2] for f in fits]))
-    with np.errstate(over="ignore"):
-        noise = float(max(float(np.nanmean(centred**2)) - variance, 0.0) * peak**2)
-        variance = float(variance * peak**2)
+    with np.errstate(over="ignore", invalid="ignore"):  # back to the image's units
+        units = peak**2
+        noise = float(max(float(np.nanmean(centred**2)) - variance, 0.0) * units)
+        variance = float(variance * units)
     if not np.isfinite(variance):
         raise ValueError("the image's variance overflows float64: rescale it")
     model = ARFieldModel([f[0] for f in fits], [f[1] for f in fits], sigma=np.sqrt(variance))
