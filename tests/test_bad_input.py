@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import kalmanfield as kf
+import kalmanfield.reference as ref
 
 
 @pytest.mark.parametrize(
@@ -78,6 +79,14 @@ def test_a_stationary_start_beyond_float64_is_refused_not_nan():
     with pytest.raises(ValueError, match="beyond float64"):
         kf.FieldStream(kf.ARFieldModel([0.5, 0.99, 0.5], [1, 8, 1]), (8, 8), seed=0).next_frame()
     assert np.isfinite(kf.ARFieldModel([0.99, 0.5], [4, 1]).sample((16, 16), seed=0)).all()
+    # the NumPy twin refuses the same starts (it returned NaN)
+    with pytest.raises(ValueError, match="beyond float64"):
+        ref.sample([0.99, 0.5], [8, 1], 1.0, np.zeros((16, 16)))
+    with pytest.raises(ValueError, match="beyond float64"):
+        ref.stream_frame([0.99, 0.5], [8, 1], 1.0, [], 0, np.zeros(16))
+    coeffs, gains = ref.stationary_start(0.99, 4)
+    assert np.isfinite(gains).all()
+    assert gains[4] ** 2 == pytest.approx(ref.beta_tilde_sq(0.99, 4), rel=1e-14)
 
 
 def test_bad_noise():

@@ -468,6 +468,39 @@ def test_an_empty_stack_gives_an_empty_result():
         assert got.shape == z.shape and got.dtype == np.float64
 
 
+@pytest.mark.parametrize("scale", [1e-150, 1e150])
+def test_the_row_filters_are_scale_free(scale):
+    # the kernels work in units of σ_x: at σ_x ~ 1e±150 the variances' products overflowed
+    # (ValueError "not positive definite" or NaN); now every output is the unit-scale one
+    # times σ_x (estimates) or σ_x² (error variances), to rounding
+    unit = kf.ARFieldModel([0.9, 0.8], [2, 2])
+    big = kf.ARFieldModel([0.9, 0.8], [2, 2], sigma=scale)
+    _, z = noisy(unit, (24, 20), 0.25, seed=3)
+    var = np.full((24, 20), 0.25)
+    var[5, 7] = np.inf
+    for cls in (kf.ScalarRowFilter, kf.VectorRowFilter):
+        for smooth in (False, True):
+            one = cls(unit, 0.25, 20, smooth=smooth)
+            many = cls(big, 0.25 * scale * scale, 20, smooth=smooth)
+            np.testing.assert_allclose(many.filter(z * scale) / scale, one.filter(z), atol=1e-12)
+            np.testing.assert_allclose(
+                many.error_variance(24) / scale / scale, one.error_variance(24), rtol=1e-12
+            )
+    one, many = kf.ScalarRowFilter(unit, 0.25, 20), kf.ScalarRowFilter(big, 0.25 * scale**2, 20)
+    np.testing.assert_allclose(
+        many.error_variance(24, var * scale**2) / scale**2,
+        one.error_variance(24, var),
+        rtol=1e-12,
+    )
+    bound = kf.wiener_bound(big, 0.25 * scale**2, (24, 20)) / scale**2
+    assert bound == pytest.approx(kf.wiener_bound(unit, 0.25, (24, 20)), rel=1e-12)
+    np.testing.assert_allclose(
+        kf.denoise(z * scale, adaptive=False) / scale, kf.denoise(z, adaptive=False), atol=1e-8
+    )
+    with pytest.raises(ValueError, match="out of float64's range"):
+        kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.9], [1, 1], sigma=1e-200), 1e200, 8)
+
+
 @pytest.mark.parametrize(
     "call,exc,match",
     [

@@ -22,6 +22,29 @@ def row_model(model: object) -> ARFieldModel:
     return model
 
 
+def unit_scale(model: ARFieldModel, noise_var: float) -> tuple[ARFieldModel, float]:
+    """`model` with σ_x = 1 and σ_θ²/σ_x²: what the row kernels are built with. Their
+    estimates are linear and their gains depend on σ_θ²/σ_x² alone (variances scale by
+    σ_x²), so working in units of σ_x keeps their products of variances inside float64
+    whatever the images' scale (σ_x of 1e±100 overflowed them). ValueError when the ratio
+    itself is out of float64's range."""
+    sigma = model.sigma
+    ratio = noise_var / sigma / sigma
+    if not 0 < ratio < np.inf:
+        raise ValueError(
+            f"noise_var / sigma² = {noise_var:g} / {sigma:g}² is out of float64's range"
+        )
+    return ARFieldModel(model.rho, model.order), ratio
+
+
+def in_image_units(variance: np.ndarray, sigma: float) -> np.ndarray:
+    """A variance map in units of σ_x² (:func:`unit_scale`) turned, in place, into the
+    images' units."""
+    variance *= sigma
+    variance *= sigma
+    return variance
+
+
 def positive_float(value: object, name: str) -> float:
     """A positive finite real number."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
@@ -66,13 +89,21 @@ class RowFilter:
 
     __slots__ = ("_model", "_noise_var", "_width", "_smooth", "_mean", "_threads", "_core")
 
-    def _set_parameters(self, model, noise_var, width, smooth, mean, threads) -> None:
+    def _set_parameters(self, model, noise_var, width, smooth, mean, threads):
+        """Checks and stores the parameters; returns the kernel's model and noise variance,
+        in units of σ_x (:func:`unit_scale`)."""
         self._model = row_model(model)
         self._noise_var = positive_float(noise_var, "noise_var")
         self._width = positive_int(width, "width")
         self._smooth = bool(smooth)
         self._mean = real_number(mean, "mean")
         self._threads = None if threads is None else positive_int(threads, "threads")
+        unit, ratio = unit_scale(self._model, self._noise_var)
+        return unit._core, ratio
+
+    def _in_image_units(self, variance: np.ndarray) -> np.ndarray:
+        """A kernel's variance map (units of σ_x²) in the images' units."""
+        return in_image_units(variance, self._model.sigma)
 
     @property
     def model(self) -> ARFieldModel:

@@ -79,15 +79,13 @@ class ScalarRowFilter(RowFilter):
         threads: int | None = None,
         modes: Literal["ends", "exact", "toeplitz"] = "ends",
     ) -> None:
-        self._set_parameters(model, noise_var, width, smooth, mean, threads)
+        unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
         if modes not in _MODES:
             raise ValueError(f"modes must be 'ends', 'exact' or 'toeplitz', got {modes!r}")
         self._modes = modes
         self._check_memory()
-        self._core = _core.ScalarRowFilter(
-            model._core, self._noise_var, self._width, self._ar_order, modes
-        )
+        self._core = _core.ScalarRowFilter(unit, ratio, self._width, self._ar_order, modes)
 
     def _check_memory(self) -> None:
         """MemoryError for rows too wide to plan: a row system's band (W n_y (b + 1) doubles)
@@ -132,9 +130,10 @@ class ScalarRowFilter(RowFilter):
         return self._filter_checked(arr, weights)
 
     def _weights(self, shape: tuple[int, ...], noise_var: npt.ArrayLike | None) -> np.ndarray:
-        """1/σ_θ² per pixel, C-contiguous of `shape`."""
+        """σ_x²/σ_θ² per pixel (the kernel works in units of σ_x), C-contiguous of `shape`."""
+        sigma = self._model.sigma
         if noise_var is None:
-            return np.full(shape, 1.0 / self._noise_var)
+            return np.full(shape, 1.0 / (self._noise_var / sigma / sigma))
         var = real_array(noise_var, "noise_var")
         try:
             var = np.broadcast_to(var, shape)
@@ -144,8 +143,8 @@ class ScalarRowFilter(RowFilter):
             ) from None
         if np.isnan(var).any() or not (var > 0).all():
             raise ValueError("noise_var must be > 0 at every pixel (inf marks a missing one)")
-        with np.errstate(divide="ignore"):
-            return np.ascontiguousarray(1.0 / var)
+        with np.errstate(divide="ignore", over="ignore", under="ignore"):
+            return np.ascontiguousarray(1.0 / (var / sigma / sigma))
 
     def error_variance(self, height: int, noise_var: npt.ArrayLike | None = None) -> np.ndarray:
         """(height, W) map of the per-pixel error variance of this filter's estimate.
@@ -180,8 +179,9 @@ class ScalarRowFilter(RowFilter):
                 )
             return wiener_error_map(self._model, self._noise_var, (height, self._width))
         if noise_var is None:
-            return self._core.error_variance(height)
-        return self._core.error_variance(height, self._weights((height, self._width), noise_var))
+            return self._in_image_units(self._core.error_variance(height))
+        weights = self._weights((height, self._width), noise_var)
+        return self._in_image_units(self._core.error_variance(height, weights))
 
     @property
     def ar_order(self) -> int:

@@ -41,10 +41,10 @@ class VectorRowFilter(RowFilter):
         mean: float = 0.0,
         threads: int | None = None,
     ) -> None:
-        self._set_parameters(model, noise_var, width, smooth, mean, threads)
+        unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
         # the row's eigenbasis, its squares and the eigensolver's workspace: W × W each
         check_memory((self._width, self._width), np.dtype(np.float64), copies=3)
-        self._core = _core.VectorRowFilter(model._core, self._noise_var, self._width)
+        self._core = _core.VectorRowFilter(unit, ratio, self._width)
 
     def error_variance(self, height: int) -> np.ndarray:
         """(height, W) map of the per-pixel error variance (diag P) of this filter — of the
@@ -52,7 +52,7 @@ class VectorRowFilter(RowFilter):
         height = positive_int(height, "height")
         # the map and the kernel's per-mode map of the same size
         check_memory((height, self._width), np.dtype(np.float64), copies=2)
-        return self._core.error_variance(height, self._smooth)
+        return self._in_image_units(self._core.error_variance(height, self._smooth))
 
     def __repr__(self) -> str:
         return (

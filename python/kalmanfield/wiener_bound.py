@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from ._row_filter import positive_float, row_model
+from ._row_filter import in_image_units, positive_float, row_model, unit_scale
 from ._validation import ShapeLike, check_memory, grid_shape
 from .ar_field_model import ARFieldModel
 
@@ -19,14 +19,24 @@ def wiener_bound(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> flo
     their mean. O(H³ + W³) (faer eigendecompositions).
     """
     h, w = _checked_grid(shape)
-    return _core.wiener_bound(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)
+    unit, ratio, sigma = _unit_parameters(model, noise_var)
+    return _core.wiener_bound(unit._core, ratio, h, w) * sigma * sigma
 
 
 def wiener_error_map(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> np.ndarray:
     """Per-pixel error variance of the best linear estimator: (U_y∘U_y) F (U_x∘U_x)ᵀ."""
     h, w = _checked_grid(shape)
     check_memory((h, w), np.dtype(np.float64), copies=2)
-    return _core.wiener_map(row_model(model)._core, positive_float(noise_var, "noise_var"), h, w)
+    unit, ratio, sigma = _unit_parameters(model, noise_var)
+    return in_image_units(_core.wiener_map(unit._core, ratio, h, w), sigma)
+
+
+def _unit_parameters(model: object, noise_var: object) -> tuple[ARFieldModel, float, float]:
+    """The checked model with σ_x = 1, σ_θ²/σ_x² and σ_x (:func:`unit_scale`: the products
+    σ_x² σ_θ² of the bound would overflow at σ_x ~ 1e100)."""
+    model = row_model(model)
+    unit, ratio = unit_scale(model, positive_float(noise_var, "noise_var"))
+    return unit, ratio, model.sigma
 
 
 def _checked_grid(shape: ShapeLike) -> tuple[int, int]:

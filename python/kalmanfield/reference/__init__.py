@@ -12,6 +12,7 @@ from .ar_field import (
     correlation,
     product_field,
     sample,
+    stationary_start,
     stream_frame,
     template,
 )
@@ -25,6 +26,7 @@ __all__ = [
     "correlation",
     "product_field",
     "sample",
+    "stationary_start",
     "stream_frame",
     "template",
 ]

@@ -62,25 +62,45 @@ def template(rho: Sequence[float], order: Sequence[int]) -> np.ndarray:
     return out
 
 
-def boundary_recursion(rho: float, n: int) -> tuple[list[np.ndarray], np.ndarray]:
-    """Coefficients a^{(m)} and gains b_m, m = 0..n, of the stationary start (SPEC §1.3):
-    Σ_i a_i R(i-s) = R(s), s = 1..m, b_m² = 1 - Σ_i a_i R(i)  [P 4.3, 4.4], solved order by
-    order with the Levinson–Durbin recursion (as the kernel does: for ρ near 1 these Toeplitz
-    systems are ill-conditioned and two different solvers would differ in the 8th digit)."""
+def _levinson(rho: float, n: int) -> tuple[list[np.ndarray], list[float]]:
+    """Coefficients a^{(m)} and prediction errors b_m², m = 0..n, by Levinson–Durbin."""
     r = axis_correlation(rho, n, np.arange(n + 1))
-    coeffs, errors = [np.zeros(0)], [r[0]]
+    coeffs, errors = [np.zeros(0)], [float(r[0])]
     for m in range(1, n + 1):
         prev = coeffs[-1]
         k = (r[m] - prev @ r[m - 1 : 0 : -1]) / errors[-1]
         coeffs.append(np.append(prev - k * prev[::-1], k))
         errors.append(errors[-1] * (1 - k * k))
+    return coeffs, errors
+
+
+def boundary_recursion(rho: float, n: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """Coefficients a^{(m)} and gains b_m, m = 0..n, of the stationary start (SPEC §1.3):
+    Σ_i a_i R(i-s) = R(s), s = 1..m, b_m² = 1 - Σ_i a_i R(i)  [P 4.3, 4.4], solved order by
+    order with the Levinson–Durbin recursion (as the kernel does: for ρ near 1 these Toeplitz
+    systems are ill-conditioned and two different solvers would differ in the 8th digit)."""
+    coeffs, errors = _levinson(rho, n)
+    return coeffs, np.sqrt(errors)
+
+
+def stationary_start(rho: float, n: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """The start the generator runs: :func:`boundary_recursion` for orders 0..n − 1, the
+    model's analytic coefficients and β̃ for order n. ValueError (as the kernel) when a
+    prediction error of orders 0..n − 1 rounds to ≤ 0: the start is beyond float64."""
+    coeffs, errors = _levinson(rho, n)
+    for m, e in enumerate(errors[:n]):
+        if not e > 0:
+            raise ValueError(
+                f"the exactly stationary start of an axis with rho = {rho} and multiplicity "
+                f"{n} is beyond float64: its order-{m} prediction error rounds to {e:.1e}"
+            )
+    coeffs[n], errors[n] = axis_ar_coefficients(rho, n), beta_tilde_sq(rho, n)
     return coeffs, np.sqrt(errors)
 
 
 def _recurse_axis(x: np.ndarray, axis: int, rho: float, n: int, scale: float = 1.0) -> np.ndarray:
     """Stationary-start recursion along `axis`, vectorised over the other axes."""
-    coeffs, gains = boundary_recursion(rho, n)
-    coeffs[n], gains[n] = axis_ar_coefficients(rho, n), np.sqrt(beta_tilde_sq(rho, n))
+    coeffs, gains = stationary_start(rho, n)
     src = np.moveaxis(x, axis, 0)
     out = np.empty_like(src)
     for i in range(src.shape[0]):
@@ -114,8 +134,7 @@ def stream_frame(
     first): a spatial field, then the time recursion at position t (SPEC §1.4)."""
     spatial = sample(rho[1:], order[1:], 1.0, noise)
     n = order[0]
-    coeffs, gains = boundary_recursion(rho[0], n)
-    coeffs[n], gains[n] = axis_ar_coefficients(rho[0], n), np.sqrt(beta_tilde_sq(rho[0], n))
+    coeffs, gains = stationary_start(rho[0], n)
     m = min(t, n)
     frame = sigma * gains[m] * spatial
     for j in range(m):
