@@ -468,6 +468,43 @@ def test_an_empty_stack_gives_an_empty_result():
         assert got.shape == z.shape and got.dtype == np.float64
 
 
+@pytest.mark.parametrize("order", [(4, 1), (4, 2), (4, 3), (3, 3)])
+def test_high_snr_is_filtered_not_refused(order):
+    # σ_x²/σ_θ² = 1e8: the block AR fit's noise covariance D has a condition of ~1e8, and
+    # inverting it by nalgebra's cofactor formula (n ≤ 4) gave an indefinite D⁻¹ ("not
+    # positive definite"); by its Cholesky factor it agrees with the twin and stays optimal
+    model = kf.ARFieldModel([0.5, 0.5], list(order))
+    noise_var, shape = 1e-8, (12, 24)
+    _, z = noisy(model, shape, noise_var, 2)
+    for smooth in (False, True):
+        got = kf.ScalarRowFilter(model, noise_var, shape[1], smooth=smooth).filter(z)
+        want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var, smooth=smooth)
+        np.testing.assert_allclose(got, want, atol=1e-8 * np.abs(z).max())
+    mse = exact_mse(kf.ScalarRowFilter(model, noise_var, shape[1]), model, noise_var, shape)
+    optimal = kf.VectorRowFilter(model, noise_var, shape[1]).error_variance(shape[0]).mean()
+    assert optimal * (1 - 1e-6) <= mse < 1.03 * optimal
+
+
+def test_slowly_settling_rows_are_refitted_until_they_settle():
+    # ρ = 0.999: the optimal P_e drifts for hundreds of rows, by < 0.1 % per row at times;
+    # freezing the row model at the first such row lost 33 % causal and 83 % smoothed here.
+    # The model is refitted whenever the band drifts by 0.1 % from the fitted one, and frozen
+    # once the geometric tail of the changes is below 0.1 % (Rust and twin alike)
+    model = kf.ARFieldModel([0.999, 0.999], [2, 2])
+    shape = (48, 48)
+    _, z = noisy(model, shape, 1.0, 5)
+    for smooth in (False, True):
+        filt = kf.ScalarRowFilter(model, 1.0, shape[1], smooth=smooth)
+        want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, 1.0, smooth=smooth)
+        # (to the conditioning of ρ = 0.999)
+        np.testing.assert_allclose(filt.filter(z), want, atol=1e-5 * np.abs(z).max())
+        optimal = kf.VectorRowFilter(model, 1.0, shape[1], smooth=smooth).error_variance(48)
+        mse = exact_mse(filt, model, 1.0, shape)
+        assert optimal.mean() * (1 - 1e-9) <= mse < 1.01 * optimal.mean()
+    assert ref.settled(1e-4, 2e-4, 1e-3) and not ref.settled(1e-4, 1.01e-4, 1e-3)
+    assert ref.settled(0.0, None, 1e-3) and not ref.settled(1e-9, None, 1e-3)
+
+
 @pytest.mark.parametrize("scale", [1e-150, 1e150])
 def test_the_row_filters_are_scale_free(scale):
     # the kernels work in units of σ_x: at σ_x ~ 1e±150 the variances' products overflowed

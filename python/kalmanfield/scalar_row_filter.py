@@ -30,8 +30,10 @@ class ScalarRowFilter(RowFilter):
     (default max(n_x, 2): within 0.4 % of m = n_x + 1 with a narrower band; m = 1 loses
     up to +3.8 % for (1, 1)), and the filter + smoother along the
     row becomes one banded SPD solve of half-bandwidth n_y(m+1) − 1: O(W n_y² m) per row.
-    The model is refitted to the optimal P_e,k row by row until its band changes by less than
-    0.1 %, then frozen; rows 1..n_y use the exact stationary prior.
+    The model follows the optimal P_e,k down the rows: refitted whenever the band has drifted
+    by more than 0.1 % from the one it was fitted to, and frozen once the band has settled
+    (the geometric tail of its row-to-row changes below 0.1 %; at most 64 models, then the
+    last one serves); rows 1..n_y use the exact stationary prior.
 
     ar_order=1 with a (1, 1) model is the source's scheme [P 3.11–3.17].
     smooth=True adds the RTS pass over the rows (the default of :func:`denoise`): within
@@ -166,7 +168,7 @@ class ScalarRowFilter(RowFilter):
 
         smooth=True: the smoothed covariance of this filter's model is not banded, so the map
         returned is the optimal smoother's, :func:`wiener_error_map` (O(H³ + W³)), which the
-        smoothed filter's true MSE lies above by its gap to the Wiener bound (≤ +2.03 % in the
+        smoothed filter's true MSE lies above by its gap to the Wiener bound (≤ +1.98 % in the
         mean on the README's grid); it has no per-pixel noise variant (ValueError).
         """
         height = positive_int(height, "height")

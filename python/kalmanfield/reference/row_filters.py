@@ -91,9 +91,12 @@ observed (H = (I 0 … 0)).
      * banded Cholesky of A_k (``banded_cholesky``): O(W n b²).
      P_e,k is NOT settled after a few rows for high multiplicity (weakly observed modes of the
      older rows keep drifting), and using the steady-state model from row n+1 on costs up to
-     +3.7 % causal / +11 % smoothed for (4,4) on 32×32.  So the model is refitted row by row
-     until the band changes by < tol (default 1e-3, relative to max|C_0|) between rows, then
-     frozen.  (tol 1e-2 → +0.07 % worse; the transient lasts ~10–30 rows.)  Memory: the Λ_k
+     +3.7 % causal / +11 % smoothed for (4,4) on 32×32.  So the model is refitted whenever
+     the band has drifted by > tol (default 1e-3, relative to max|C_0|) from the one it was
+     fitted to, and frozen once the band has settled (``settled``: the geometric tail of the
+     row-to-row changes < tol; at most MAX_ROW_MODELS models).  (Until 2026-11-26 it froze
+     at the first row changing by < tol, which at ρ = 0.999 stopped far from the limit.)
+     The transient lasts ~10–55 rows on the issue's grid.  Memory: the Λ_k
      and Cholesky factors of the transient rows (needed again by the RTS pass), each
      O(W n b).  Per-row work afterwards: O(W n b) = O(W n² m) (≈ 4n(b+1) flops per pixel for
      the forward pass, twice that with smoothing).
@@ -481,12 +484,13 @@ def scalar_filter_plan(
     """Precomputed per-row quantities of the quasi-optimal filter (module doc, part 3), in the
     whitened row basis of ``row_basis``: list over rows t of dict(prec=Λ_t (sparse),
     chol=banded Cholesky of A_t, index=observed state index, predict=bool).
-    transient=True: Λ_t is refitted to the band of the optimal P_e,t until that band settles
-    (relative change < tol).  transient=False: one model, fitted to the steady-state P_e,∞,
-    serves every row after the (exact) start.  ar_order None → max(n_x, 2).  modes="toeplitz":
-    the band from the Fourier modes of the infinite row (``toeplitz_band``); modes="ends":
-    spliced with the exact band of a `span`-point row at both ends (``ends_band``; the Rust
-    filter's ``ends_span``)."""
+    transient=True: Λ_t is refitted to the band of the optimal P_e,t whenever that band has
+    drifted by > tol from the fitted one, until it settles (``settled``; a refit that fails,
+    beyond float64, keeps the last model).  transient=False: one model, fitted to the
+    steady-state P_e,∞, serves every row after the (exact) start.  ar_order None →
+    max(n_x, 2).  modes="toeplitz": the band from the Fourier modes of the infinite row
+    (``toeplitz_band``); modes="ends": spliced with the exact band of a `span`-point row at
+    both ends (``ends_band``; the Rust filter's ``ends_span``)."""
     n, m = order[0], (max(order[1], 2) if ar_order is None else ar_order)
     bw = n * (m + 1) - 1
     if modes == "ends" and span is None:
@@ -512,8 +516,9 @@ def scalar_filter_plan(
     if not transient:
         pe_inf = steady_prediction(rho, order, sigma, noise_var, width)
         steps = [st if t < n else {"pe": pe_inf} for t, st in enumerate(steps)]
-    plan, prev_band, prec, chol, obs = [], None, None, None, None
-    frozen = False  # once two consecutive bands agree within tol, the model stays fixed
+    plan, prec, chol, obs = [], None, None, None
+    fitted, prev_band, prev_change, models = None, None, None, 0
+    frozen = False  # once the bands have settled (``settled``), the model stays fixed
     for t, ((predict, i), st) in enumerate(zip(row_schedule(n, height), steps)):
         pe = tmat @ st["pe"] @ tmat.T
         pe = 0.5 * (pe + pe.transpose(0, 2, 1))  # exactly symmetric: T is ill-conditioned
@@ -536,15 +541,49 @@ def scalar_filter_plan(
             plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
             continue
         band = prediction_band_of(pe)
-        frozen = prev_band is not None and all(
-            np.max(np.abs(b - c)) <= tol * np.max(np.abs(band[0])) for b, c in zip(band, prev_band)
-        )
-        if not frozen:
-            prec = precision_of(band)
-            chol = banded_cholesky(prec + observation_block(lower, 0, width, noise_var), bw)
-            prev_band = band
+        scale = np.max(np.abs(band[0]))
+        if fitted is None or band_change(band, fitted) > tol * scale:
+            try:
+                new_prec = precision_of(band)
+                chol = banded_cholesky(new_prec + observation_block(lower, 0, width, noise_var), bw)
+                prec, fitted, models = new_prec, band, models + 1
+            except np.linalg.LinAlgError:
+                if fitted is None:
+                    raise
+                frozen = True  # a later row's fit beyond float64: keep the last sound model
+        frozen = frozen or models == MAX_ROW_MODELS
+        if prev_band is not None:
+            change = band_change(band, prev_band) / scale
+            frozen = frozen or settled(change, prev_change, tol)
+            prev_change = change
+        prev_band = band
         plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
     return plan
+
+
+MAX_ROW_MODELS = 64
+"""Twin of ``scalar_row_filter.rs``'s: the most row models (Λ_t and its factor) a plan fits
+after the start rows; then the last one serves the remaining rows (memory)."""
+
+
+def band_change(band: list[np.ndarray], other: list[np.ndarray]) -> float:
+    """Largest entry-wise difference between two bands of blocks."""
+    return max(float(np.max(np.abs(b - c))) for b, c in zip(band, other))
+
+
+def settled(change: float, previous: float | None, tol: float) -> bool:
+    """Whether a sequence whose latest relative change is `change` (the one before:
+    `previous`) is within `tol` of its limit: change / (1 − q) ≤ tol with q = change /
+    previous, the geometric tail the last two changes imply (twin of
+    ``scalar_row_filter.rs``'s ``settled``). At q ≥ 0.999 (not contracting yet, or
+    changes at the rounding floor) the bound is change ≤ 1e-3 tol. One row's change ≤ tol
+    alone froze slowly converging Riccatis (ρ = 0.999) far from their limit."""
+    if change == 0.0:
+        return True
+    if previous is None:
+        return False
+    q = min(change / previous, 1.0) if previous > 0 else 1.0
+    return change <= tol * max(1.0 - q, 1e-3)
 
 
 def _apply_block(a: np.ndarray, state: np.ndarray, n: int) -> np.ndarray:
