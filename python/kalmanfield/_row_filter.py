@@ -34,7 +34,7 @@ def unit_scale(model: ARFieldModel, noise_var: float) -> tuple[ARFieldModel, flo
         raise ValueError(
             f"noise_var / sigma² = {noise_var:g} / {sigma:g}² is out of float64's range"
         )
-    return ARFieldModel(model.rho, model.order), ratio
+    return (model if sigma == 1.0 else ARFieldModel(model.rho, model.order)), ratio
 
 
 def in_image_units(variance: np.ndarray, sigma: float) -> np.ndarray:
@@ -89,7 +89,9 @@ class RowFilter:
 
     __slots__ = ("_model", "_noise_var", "_width", "_smooth", "_mean", "_threads", "_core")
 
-    def _set_parameters(self, model, noise_var, width, smooth, mean, threads):
+    def _set_parameters(
+        self, model, noise_var, width, smooth, mean, threads
+    ) -> tuple[object, float]:
         """Checks and stores the parameters; returns the kernel's model and noise variance,
         in units of σ_x (:func:`unit_scale`)."""
         self._model = row_model(model)

@@ -972,7 +972,6 @@ fn variances(values: &[f64], sigma: f64) -> Vec<f64> {
     values.iter().map(|l| sigma * sigma * l).collect()
 }
 
-/// max |a − b| over the entries (max |a| without b).
 /// Largest entry-wise difference between two bands of blocks.
 fn band_change(band: &[Mat<f64>], other: &[Mat<f64>]) -> f64 {
     band.iter()
@@ -1001,6 +1000,7 @@ fn settled(change: f64, previous: Option<f64>, tolerance: f64) -> bool {
     change <= tolerance * (1.0 - q).max(1e-3)
 }
 
+/// max |a − b| over the entries (max |a| without b).
 fn max_abs_difference(a: &Mat<f64>, b: Option<&Mat<f64>>) -> f64 {
     let mut most = 0.0f64;
     for c in 0..a.ncols() {
