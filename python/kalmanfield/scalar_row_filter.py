@@ -32,8 +32,9 @@ class ScalarRowFilter(RowFilter):
     row becomes one banded SPD solve of half-bandwidth n_y(m+1) − 1: O(W n_y² m) per row.
     The model follows the optimal P_e,k down the rows: refitted whenever the band has drifted
     by more than 0.1 % from the one it was fitted to, and frozen once the band has settled
-    (the geometric tail of its row-to-row changes below 0.1 %; at most 64 models, then the
-    last one serves); rows 1..n_y use the exact stationary prior.
+    (the geometric tail of its row-to-row changes below 0.1 %; at most 64 models, down to
+    16 for rows whose models would take over 1 GiB, then the last one serves); rows 1..n_y
+    use the exact stationary prior.
 
     ar_order=1 with a (1, 1) model is the source's scheme [P 3.11–3.17].
     smooth=True adds the RTS pass over the rows (the default of :func:`denoise`): within

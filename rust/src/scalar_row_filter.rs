@@ -54,10 +54,15 @@ struct Job<'a> {
 /// model is refitted, and the tolerance within which the band must have settled
 /// (`settled`) for the model to be frozen.
 const SETTLE_TOLERANCE: f64 = 1e-3;
-/// The most row models (Λ_t and its factor, ~4 W n_y (b + 1) doubles) a plan fits after the
-/// start rows; the last one then serves the rows below (slowly settling Riccatis, ρ ≥ 0.99,
-/// drift by more than the tolerance for hundreds of rows).
+/// The most row models (Λ_t and its factor) a plan fits after the start rows; the last one
+/// then serves the rows below (slowly settling Riccatis, ρ ≥ 0.99, drift by more than the
+/// tolerance for hundreds of rows). Very wide rows get fewer (`ScalarRowFilter::max_models`).
 const MAX_ROW_MODELS: usize = 64;
+/// The memory the row models of a plan may take before very wide rows get fewer of them
+/// (at least [`MIN_ROW_MODELS`]): 64 models of (4,4) fit up to W ≈ 5200.
+const ROW_MODELS_BYTES: usize = 1 << 30;
+/// The fewest row models a plan may fit whatever the width (the grid needs ≤ 55).
+const MIN_ROW_MODELS: usize = 16;
 /// How far above the estimated rounding floor of the band a splice defect may lie: the
 /// exact band sums W' modes against the second quadrature's few hundred, and its scatter was
 /// measured at 3–7× the estimate (n_y = 4, ρ = 0.95), with the splice itself converged.
@@ -406,6 +411,14 @@ impl ScalarRowFilter {
         Ok(b.transpose() * inverse * b)
     }
 
+    /// [`MAX_ROW_MODELS`], or fewer for rows so wide that their models would take more than
+    /// [`ROW_MODELS_BYTES`] (each ~5 W n_y (b + 1) doubles: Λ, the factor and its
+    /// substitution tables), but at least [`MIN_ROW_MODELS`].
+    fn max_models(&self) -> usize {
+        let doubles = 5 * self.width() * self.dynamics.order * (self.bandwidth() + 1);
+        (ROW_MODELS_BYTES / (8 * doubles)).clamp(MIN_ROW_MODELS, MAX_ROW_MODELS)
+    }
+
     /// Λ fitted to a prediction row's band and the factor of its system (row 0 observed).
     fn row_system(&self, band: &[Mat<f64>]) -> Result<(SymmetricBand, BandCholesky)> {
         let precision = self.precision(band)?;
@@ -486,7 +499,7 @@ impl ScalarRowFilter {
                             plan.precisions.push(precision);
                             fitted = Some(band.clone());
                             // (precisions[0] is the start's prior)
-                            plan.settled |= plan.precisions.len() > MAX_ROW_MODELS;
+                            plan.settled |= plan.precisions.len() > self.max_models();
                         }
                         // a later row's fit beyond float64 (n_y = 4 near ρ = 1): the model
                         // stays the last sound one
@@ -1037,6 +1050,21 @@ mod tests {
         assert!(!settled(1e-4, Some(1.01e-4), 1e-3)); // q ≈ 0.99: tail 1e-2
         assert!(!settled(1e-4, Some(0.5e-4), 1e-3)); // growing: 1e-4 > 1e-6
         assert!(settled(1e-7, Some(0.5e-7), 1e-3)); // growing at the rounding floor
+    }
+
+    #[test]
+    fn very_wide_rows_fit_fewer_row_models() {
+        let model = FieldModel::new(&[0.9, 0.9], &[4, 4], 1.0).unwrap();
+        let models = |w| {
+            ScalarRowFilter::new(&model, 1.0, w, None, ModeSet::Toeplitz)
+                .unwrap()
+                .max_models()
+        };
+        // 5 W n_y (b + 1) doubles per model, b = 19: 1 GiB holds 64 up to W = 5242
+        assert_eq!(models(2048), MAX_ROW_MODELS);
+        assert_eq!(models(5242), MAX_ROW_MODELS);
+        assert_eq!(models(8192), 40);
+        assert_eq!(models(1 << 20), MIN_ROW_MODELS);
     }
 
     #[test]

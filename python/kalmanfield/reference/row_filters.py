@@ -563,7 +563,9 @@ def scalar_filter_plan(
 
 MAX_ROW_MODELS = 64
 """Twin of ``scalar_row_filter.rs``'s: the most row models (Λ_t and its factor) a plan fits
-after the start rows; then the last one serves the remaining rows (memory)."""
+after the start rows; then the last one serves the remaining rows (memory). The kernel
+lowers it (to no less than 16) for rows so wide that 64 models would take more than 1 GiB
+(W ≳ 5200 for (4,4)); the twin, never run that wide, keeps 64."""
 
 
 def band_change(band: list[np.ndarray], other: list[np.ndarray]) -> float:
