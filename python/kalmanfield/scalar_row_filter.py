@@ -158,8 +158,8 @@ class ScalarRowFilter(RowFilter):
         distinct A_t, none of the O(W³) of :class:`VectorRowFilter`). It is the optimal
         filter's error variance on rows 1..n_y, where Λ is the stationary prior's, and after
         them a band fit of the optimal one: on the README's 60-case grid (24², ρ ≤ 0.95) within
-        6.5 % of :meth:`VectorRowFilter.error_variance` pixel by pixel, and the filter's
-        exact MSE within −4.5 %…+1.6 % of it (mostly below: the map errs on the safe side).
+        6.0 % of :meth:`VectorRowFilter.error_variance` pixel by pixel, and the filter's
+        exact MSE within −2.7 %…+0.13 % of it (mostly below: the map errs on the safe side).
 
         noise_var: the per-pixel σ_θ² map the image will be filtered with (as in
         :meth:`filter`: broadcastable to (height, W), > 0, inf = missing pixel; for an image

@@ -74,6 +74,12 @@ const MAX_SETTLE_ROWS: usize = 100_000;
 /// rounding scatter of the interior columns' fits (~1e-10 for n_y = 3; ~5e-8 for n_y = 4 at
 /// ρ = 0.9, ~6e-6 at ρ = 0.95), below the edge effects that matter.
 const INTERIOR_TOLERANCE: f64 = 1e-5;
+/// Jitters ε (relative to the largest variance of a column's joint covariance with its
+/// past), smallest first, of the square-root fit that replaces a row model whose systems
+/// cannot be factored in float64 (`ScalarRowFilter::sound_systems`): near ρ = 1 the
+/// innovation variance D of an AR(n_x) fit along the row falls to the rounding of the band
+/// (~6e-15 of the variance for n_x = 3 at ρ = 0.999), and D⁻¹ is then rounding noise.
+const JITTERS: [f64; 8] = [0.0, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11, 1e-10, 1e-9];
 
 /// The quasi-optimal filter for one model, noise variance, width and AR order m.
 #[derive(Debug)]
@@ -326,7 +332,9 @@ impl ScalarRowFilter {
     /// periodic interior of Λ gives factors that `steady_band` solves fastest. Each term
     /// stays a whole fit (Bᵀ D⁻¹ B, positive semi-definite): moving the entries of Γ or D
     /// separately by such amounts wrecks the n_y = 4 models.
-    fn precision(&self, band: &[Mat<f64>]) -> Result<SymmetricBand> {
+    /// `jitter`: None for the direct fit (`column_contribution`), Some(ε) for the square-root
+    /// one (`root_contribution`).
+    fn precision(&self, band: &[Mat<f64>], jitter: Option<f64>) -> Result<SymmetricBand> {
         let (w, n, m) = (self.width(), self.dynamics.order, self.ar_order);
         let mut out = SymmetricBand::zeros(w * n, self.bandwidth());
         // columns with a full past that reaches a Toeplitz row (`Ends`: also those whose past
@@ -338,7 +346,7 @@ impl ScalarRowFilter {
         let central = if w / 2 < m {
             None
         } else {
-            Some(self.column_contribution(band, w / 2)?)
+            Some(self.contribution(band, w / 2, jitter)?)
         };
         for ell in 0..w {
             let k = ell.min(m);
@@ -346,7 +354,7 @@ impl ScalarRowFilter {
             let q = match &central {
                 Some(c) if steady(ell) => c,
                 _ => {
-                    computed = self.column_contribution(band, ell)?;
+                    computed = self.contribution(band, ell, jitter)?;
                     match &central {
                         Some(c) if k == m && is_settled(&computed, c) => c,
                         _ => &computed,
@@ -371,12 +379,68 @@ impl ScalarRowFilter {
         Ok(out)
     }
 
+    fn contribution(
+        &self,
+        band: &[Mat<f64>],
+        ell: usize,
+        jitter: Option<f64>,
+    ) -> Result<DMatrix<f64>> {
+        match jitter {
+            None => self.column_contribution(band, ell),
+            Some(epsilon) => self.root_contribution(band, ell, epsilon),
+        }
+    }
+
+    /// The past columns of column ℓ, newest first: ℓ − 1, …, ℓ − min(ℓ, m).
+    fn past(&self, ell: usize) -> Vec<usize> {
+        (ell.saturating_sub(self.ar_order)..ell).rev().collect()
+    }
+
+    /// Column ℓ's term of Λ in square-root form: C = L Lᵀ, C the joint covariance of the
+    /// past ℓ − k, …, ℓ − 1 and column ℓ (in that order) plus ε max_i C_ii I; the last n_y
+    /// rows of L⁻¹ are G = L_ℓℓ⁻¹ [−Γ_ℓ, I] with D = L_ℓℓ L_ℓℓᵀ (the fit of
+    /// `column_contribution` to the jittered C), so the term Bᵀ D⁻¹ B = GᵀG is positive
+    /// semi-definite whatever the rounding ([P 3.34–3.36] by the inverse Cholesky factor).
+    fn root_contribution(
+        &self,
+        band: &[Mat<f64>],
+        ell: usize,
+        epsilon: f64,
+    ) -> Result<DMatrix<f64>> {
+        let n = self.dynamics.order;
+        // joint order: past (oldest first), then ℓ; the term is returned in (ℓ, ℓ − 1, …)
+        let mut columns = self.past(ell);
+        columns.reverse();
+        columns.push(ell);
+        let size = columns.len() * n;
+        let mut joint = DMatrix::from_fn(size, size, |r, c| {
+            self.block(band, columns[r / n], columns[c / n])[(r % n, c % n)]
+        });
+        joint = (&joint + joint.transpose()) * 0.5;
+        let top = joint.diagonal().max();
+        for i in 0..size {
+            joint[(i, i)] += epsilon * top;
+        }
+        let lower = joint.cholesky().ok_or_else(singular_model)?.l();
+        let inverse = lower
+            .solve_lower_triangular(&DMatrix::identity(size, size))
+            .ok_or_else(singular_model)?;
+        let rows = inverse.rows(size - n, n);
+        // reorder the columns to (ℓ, ℓ − 1, …, ℓ − k)
+        let k = columns.len() - 1;
+        let g = DMatrix::from_fn(n, size, |r, c| {
+            let (block, i) = (c / n, c % n);
+            rows[(r, (k - block) * n + i)]
+        });
+        Ok(g.transpose() * g)
+    }
+
     /// Column ℓ's term Bᵀ D⁻¹ B of Λ, B = [I, −Γ_ℓ] over the columns ℓ, ℓ − 1, …, ℓ − k
     /// (k = min(ℓ, m)): Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹, D = C_ℓℓ − Γ_ℓ C_{past,ℓ}
     /// ([P 3.11, 3.12, 3.34–3.36]).
     fn column_contribution(&self, band: &[Mat<f64>], ell: usize) -> Result<DMatrix<f64>> {
         let n = self.dynamics.order;
-        let past: Vec<usize> = (ell.saturating_sub(self.ar_order)..ell).rev().collect();
+        let past = self.past(ell);
         let k = past.len();
         let mut b = DMatrix::<f64>::zeros(n, (k + 1) * n);
         b.view_mut((0, 0), (n, n)).fill_with_identity();
@@ -421,9 +485,48 @@ impl ScalarRowFilter {
 
     /// Λ fitted to a prediction row's band and the factor of its system (row 0 observed).
     fn row_system(&self, band: &[Mat<f64>]) -> Result<(SymmetricBand, BandCholesky)> {
-        let precision = self.precision(band)?;
-        let factor = self.system(&precision, &[0])?;
-        Ok((precision, factor))
+        let (precision, mut factors) = self.sound_systems(band, &[vec![0]])?;
+        Ok((precision, factors.remove(0)))
+    }
+
+    /// The start's prior Λ (the stationary one, fitted to the first band) and the factors of
+    /// the start rows' systems, row t ≤ n_y observing the state rows n_y − 1, …, n_y − t.
+    fn start_systems(&self, band: &[Mat<f64>]) -> Result<(SymmetricBand, Vec<BandCholesky>)> {
+        let n = self.dynamics.order;
+        let observed: Vec<Vec<usize>> = (1..=n).map(|t| (1..=t).map(|i| n - i).collect()).collect();
+        self.sound_systems(band, &observed)
+    }
+
+    /// Λ fitted to `band` and the factors of its systems for each set of `observed` state
+    /// rows. If the direct fit or one of its systems fails in float64, the square-root fit
+    /// (`root_contribution`) with the smallest jitter of [`JITTERS`] for which Λ itself and
+    /// every system factor (so the weighted rows' systems, Λ plus non-negative terms, factor
+    /// too); the jitter bounds D from below, i.e. adds a white component of ε times the
+    /// variance along the row to the model the filter assumes. Without one that works, the
+    /// direct fit's failure is returned.
+    fn sound_systems(
+        &self,
+        band: &[Mat<f64>],
+        observed: &[Vec<usize>],
+    ) -> Result<(SymmetricBand, Vec<BandCholesky>)> {
+        let systems = |p: SymmetricBand| -> Result<(SymmetricBand, Vec<BandCholesky>)> {
+            let factors = observed
+                .iter()
+                .map(|o| self.system(&p, o))
+                .collect::<Result<_>>()?;
+            Ok((p, factors))
+        };
+        let failure = match self.precision(band, None).and_then(systems) {
+            Ok(found) => return Ok(found),
+            Err(e) => e,
+        };
+        for epsilon in JITTERS {
+            let root = self.precision(band, Some(epsilon));
+            if let Ok(found) = root.and_then(|p| p.cholesky().and_then(|_| systems(p))) {
+                return Ok(found);
+            }
+        }
+        Err(failure)
     }
 
     /// A = Λ + I_W ⊗ h hᵀ/σ_θ² for each observed row h in `observed`.
@@ -479,13 +582,12 @@ impl ScalarRowFilter {
             if t <= n {
                 if t == 1 {
                     let band = self.band(&self.whitened(&modal));
-                    plan.precisions.push(self.precision(&band)?);
+                    let (prior, factors) = self.start_systems(&band)?;
+                    plan.precisions.push(prior);
+                    plan.factors = factors;
                 }
-                let observed: Vec<usize> = (1..=t).map(|i| n - i).collect();
-                plan.factors
-                    .push(self.system(&plan.precisions[0], &observed)?);
                 plan.row_precision.push(0);
-                plan.row_factor.push(plan.factors.len() - 1);
+                plan.row_factor.push(t - 1);
             } else {
                 let band = self.band(&self.whitened(&modal));
                 let scale = max_abs_difference(&band[0], None);
@@ -530,7 +632,7 @@ impl ScalarRowFilter {
     /// start rows t ≤ n_y read row n_y − t, the later ones row 0). A_t⁻¹ is the posterior
     /// covariance the filter assumes (its model Λ_t fitted to the optimal P_e,t): exact for
     /// the start rows, where Λ is the stationary prior's (m ≥ n_x); after them an
-    /// approximation of the filter's MSE (measured within −4.5 %…+1.6 % of it, README). The
+    /// approximation of the filter's MSE (measured within −2.7 %…+0.13 % of it, README). The
     /// band of A_t⁻¹ by selected inversion (`band_inverse`), O(W n_y b²) per factor: once per
     /// distinct factor of the plan for the nominal noise (`weights` None), per row (in
     /// parallel) for per-pixel 1/σ_θ² `weights` (0 = missing pixel), the systems the filter
@@ -1065,6 +1167,48 @@ mod tests {
         assert_eq!(models(5242), MAX_ROW_MODELS);
         assert_eq!(models(8192), 40);
         assert_eq!(models(1 << 20), MIN_ROW_MODELS);
+    }
+
+    /// The band of P_e of prediction row `t` (1-based), whitened.
+    fn band_of_row(filter: &ScalarRowFilter, t: usize) -> Vec<Mat<f64>> {
+        let (_, modal) = filter
+            .prediction_errors(&filter.mode_var)
+            .nth(t - 1)
+            .unwrap();
+        filter.band(&filter.whitened(&modal))
+    }
+
+    #[test]
+    fn the_square_root_fit_is_the_direct_one() {
+        let model = FieldModel::new(&[0.9, 0.8], &[2, 2], 1.0).unwrap();
+        let filter = ScalarRowFilter::new(&model, 0.5, 20, None, ModeSet::Exact).unwrap();
+        for t in [1, 3, 6] {
+            let band = band_of_row(&filter, t);
+            let direct = filter.precision(&band, None).unwrap();
+            let root = filter.precision(&band, Some(0.0)).unwrap();
+            let size = direct.size();
+            let top = (0..size).map(|i| direct.get(i, i)).fold(0.0, f64::max);
+            for i in 0..size {
+                for k in i.saturating_sub(filter.bandwidth())..=i {
+                    let gap = (direct.get(i, k) - root.get(i, k)).abs();
+                    assert!(gap < 1e-10 * top, "row {t}, ({i}, {k}): {gap}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_start_beyond_float64_takes_the_square_root_fit() {
+        // ρ = 0.999, n_x = 3: D of the direct fit is ~6e-15 of the variance, its inverse
+        // rounding noise, and the start's system cannot be factored
+        let model = FieldModel::new(&[0.999, 0.999], &[4, 3], 1.0).unwrap();
+        let filter = ScalarRowFilter::new(&model, 1.0, 16, None, ModeSet::Exact).unwrap();
+        let band = band_of_row(&filter, 1);
+        let direct = filter.precision(&band, None).unwrap();
+        assert!(filter.system(&direct, &[3]).is_err());
+        let (prior, factors) = filter.start_systems(&band).unwrap();
+        assert_eq!(factors.len(), 4);
+        assert!(prior.cholesky().is_ok());
     }
 
     #[test]

@@ -121,7 +121,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sparse
-from scipy.linalg import cho_solve_banded, cholesky_banded, eigh, toeplitz
+from scipy.linalg import cho_solve_banded, cholesky_banded, eigh, solve_triangular, toeplitz
 
 from .ar_field import axis_ar_coefficients, axis_correlation, beta_tilde_sq
 
@@ -398,8 +398,25 @@ def column_model(band: list[np.ndarray], ell: int, m: int) -> tuple[np.ndarray, 
     return gam, 0.5 * (dcov + dcov.T)
 
 
+def root_contribution(band: list[np.ndarray], ell: int, m: int, jitter: float) -> np.ndarray:
+    """Column ℓ's term of Λ in square-root form (twin of ``ScalarRowFilter::
+    root_contribution``): C = L Lᵀ, C the joint covariance of the past ℓ−k, …, ℓ−1 and
+    column ℓ plus jitter · max_i C_ii I; the last n rows of L⁻¹ are G = L_ℓℓ⁻¹ [−Γ_ℓ, I], and
+    the term is GᵀG (positive semi-definite whatever the rounding), returned in the order
+    (ℓ, ℓ−1, …, ℓ−k) of ``contribution``."""
+    n = band[0].shape[1]
+    columns = list(range(max(ell - m, 0), ell + 1))
+    joint = np.block([[_block_cov(band, i, j) for j in columns] for i in columns])
+    joint = 0.5 * (joint + joint.T)
+    joint += jitter * np.max(np.diag(joint)) * np.eye(len(joint))
+    inverse = solve_triangular(np.linalg.cholesky(joint), np.eye(len(joint)), lower=True)
+    rows = inverse[-n:]
+    g = np.hstack([rows[:, b * n : (b + 1) * n] for b in reversed(range(len(columns)))])
+    return g.T @ g
+
+
 def markov_precision(
-    band: list[np.ndarray], m: int, toeplitz_rows: range = range(0)
+    band: list[np.ndarray], m: int, toeplitz_rows: range = range(0), jitter: float | None = None
 ) -> sparse.csr_matrix:
     """Precision Λ = Lᵀ D⁻¹ L = Σ_ℓ B_ℓᵀ D_ℓ⁻¹ B_ℓ of the block AR(m) model along the row
     fitted to the band (``column_model``); a column with a full past whose term lies within
@@ -407,10 +424,17 @@ def markov_precision(
     ``ScalarRowFilter::precision``: an exactly periodic interior).  `toeplitz_rows`: the rows
     holding the Toeplitz blocks (modes "ends"); a column with a full past that reaches one
     takes the middle column's term without a fit of its own (a fit straddling the splice
-    mixes two sources and can be indefinite).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
+    mixes two sources and can be indefinite).  `jitter`: None for the direct fit, else the
+    square-root one (``root_contribution``).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
     width, n = band[0].shape[0], band[0].shape[1]
     middle = width // 2
-    central = contribution(*column_model(band, middle, m), n) if middle >= m else None
+
+    def term(ell: int) -> np.ndarray:
+        if jitter is None:
+            return contribution(*column_model(band, ell, m), n)
+        return root_contribution(band, ell, m, jitter)
+
+    central = term(middle) if middle >= m else None
     steady = range(max(m, toeplitz_rows.start), toeplitz_rows.stop + m) if toeplitz_rows else ()
     rows, cols, vals = [], [], []
     for ell in range(width):
@@ -418,7 +442,7 @@ def markov_precision(
         if central is not None and ell in steady:
             q = central
         else:
-            q = contribution(*column_model(band, ell, m), n)
+            q = term(ell)
         if central is not None and len(past) == m and is_settled(q, central):
             q = central
         index = np.concatenate([np.arange(c * n, (c + 1) * n) for c in [ell] + past])
@@ -511,12 +535,12 @@ def scalar_filter_plan(
         return prediction_band(u, pe, m)
 
     def precision_of(band):
-        return markov_precision(band, m, toeplitz_rows)
+        return lambda jitter: markov_precision(band, m, toeplitz_rows, jitter)
 
     if not transient:
         pe_inf = steady_prediction(rho, order, sigma, noise_var, width)
         steps = [st if t < n else {"pe": pe_inf} for t, st in enumerate(steps)]
-    plan, prec, chol, obs = [], None, None, None
+    plan, prec, chol, start = [], None, None, []
     fitted, prev_band, prev_change, models = None, None, None, 0
     frozen = False  # once the bands have settled (``settled``), the model stays fixed
     for t, ((predict, i), st) in enumerate(zip(row_schedule(n, height), steps)):
@@ -524,17 +548,13 @@ def scalar_filter_plan(
         pe = 0.5 * (pe + pe.transpose(0, 2, 1))  # exactly symmetric: T is ill-conditioned
         if not predict:  # static start: exact stationary prior, accumulated observations
             if t == 0:
-                prec = precision_of(prediction_band_of(pe))  # exact if m ≥ n_x
-                obs = prec
-            obs = obs + observation_block(lower, i, width, noise_var)
+                prior = precision_of(prediction_band_of(pe))  # exact if m ≥ n_x
+                observed = [observation_block(lower, n - 1, width, noise_var)]
+                for k in range(n - 2, -1, -1):
+                    observed.append(observed[-1] + observation_block(lower, k, width, noise_var))
+                prec, start = sound_systems(prior, observed, bw)
             plan.append(
-                {
-                    "prec": prec,
-                    "chol": banded_cholesky(obs, bw),
-                    "index": i,
-                    "predict": False,
-                    "bandwidth": bw,
-                }
+                {"prec": prec, "chol": start[t], "index": i, "predict": False, "bandwidth": bw}
             )
             continue
         if frozen:
@@ -544,9 +564,9 @@ def scalar_filter_plan(
         scale = np.max(np.abs(band[0]))
         if fitted is None or band_change(band, fitted) > tol * scale:
             try:
-                new_prec = precision_of(band)
-                chol = banded_cholesky(new_prec + observation_block(lower, 0, width, noise_var), bw)
-                prec, fitted, models = new_prec, band, models + 1
+                observed = [observation_block(lower, 0, width, noise_var)]
+                prec, (chol,) = sound_systems(precision_of(band), observed, bw)
+                fitted, models = band, models + 1
             except np.linalg.LinAlgError:
                 if fitted is None:
                     raise
@@ -559,6 +579,34 @@ def scalar_filter_plan(
         prev_band = band
         plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
     return plan
+
+
+JITTERS = (0.0, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11, 1e-10, 1e-9)
+"""Twin of ``scalar_row_filter.rs``'s: jitters of the square-root fit (``root_contribution``),
+smallest first, for row models whose direct fit or systems fail in float64 (near ρ = 1 the
+innovation variance of an AR(n_x) fit along the row falls to the band's rounding)."""
+
+
+def sound_systems(
+    precision_of, observed: list, bandwidth: int
+) -> tuple[sparse.spmatrix, list[np.ndarray]]:
+    """(Λ, [banded Cholesky of Λ + o for o in observed]) with Λ = precision_of(None), the
+    direct fit; if it or a system fails, Λ = precision_of(ε), the square-root fit, with the
+    smallest ε of JITTERS for which Λ itself and every system factor (twin of
+    ``ScalarRowFilter::sound_systems``); without one, the direct fit's failure."""
+    try:
+        prec = precision_of(None)
+        return prec, [banded_cholesky(prec + o, bandwidth) for o in observed]
+    except np.linalg.LinAlgError as error:
+        failure = error
+    for epsilon in JITTERS:
+        try:
+            prec = precision_of(epsilon)
+            banded_cholesky(prec, bandwidth)
+            return prec, [banded_cholesky(prec + o, bandwidth) for o in observed]
+        except np.linalg.LinAlgError:
+            continue
+    raise failure
 
 
 MAX_ROW_MODELS = 64
