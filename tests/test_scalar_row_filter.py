@@ -1,5 +1,6 @@
 """The quasi-optimal row filter (SPEC §2.3 generalised) and denoise."""
 
+import os
 import pickle
 
 import numpy as np
@@ -533,6 +534,18 @@ def test_row_models_beyond_float64_take_the_square_root_fit(order, noise_var):
     for smooth, floor in ((False, optimal), (True, bound)):
         filt = kf.ScalarRowFilter(model, noise_var, 64, smooth=smooth)
         assert floor * (1 - 1e-6) <= exact_mse(filt, model, noise_var, shape) < 1.001 * floor
+
+
+@pytest.mark.skipif(
+    os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") > 100 * 2**30,
+    reason="the plan of this width fits in more than 100 GiB of memory",
+)
+def test_a_plan_too_large_for_the_memory_is_refused_before_the_kernel():
+    # (4,4), W = 2e6: one row system's band holds 1.3 GB (6 copies fit in 24 GiB, the check
+    # before 2026-11-27), but the plan may hold 16 row models of 5 bands each (~110 GB)
+    model = kf.ARFieldModel([0.9, 0.9], [4, 4])
+    with pytest.raises(MemoryError, match="GiB"):
+        kf.ScalarRowFilter(model, 1.0, 2 * 10**6)
 
 
 @pytest.mark.parametrize("scale", [1e-150, 1e150])

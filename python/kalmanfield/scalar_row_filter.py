@@ -14,6 +14,9 @@ from .ar_field_model import ARFieldModel
 from .wiener_bound import wiener_error_map
 
 _MODES = ("ends", "exact", "toeplitz")
+_MIN_ROW_MODELS = 16
+"""The fewest row models a plan may fit however wide the row (``MIN_ROW_MODELS`` of
+``scalar_row_filter.rs``): what `_check_memory` must find room for."""
 
 
 class ScalarRowFilter(RowFilter):
@@ -92,12 +95,14 @@ class ScalarRowFilter(RowFilter):
 
     def _check_memory(self) -> None:
         """MemoryError for rows too wide to plan: a row system's band (W n_y (b + 1) doubles)
-        held as precision, factor and substitution tables, and with modes="exact" the row's
-        W × W eigenbasis."""
+        held as precision, factor and substitution tables (~5 bands) for each row model of
+        the plan (the kernel fits up to 64 within 1 GiB, at least 16 however wide the row:
+        its ``MIN_ROW_MODELS``) and the start's, and with modes="exact" the row's W × W
+        eigenbasis."""
         n_y = self._model.order[0]
         m = min(self.ar_order, 8)  # larger orders are refused by the kernel (ValueError)
         band = self._width * n_y * (n_y * (m + 1))
-        check_memory((band,), np.dtype(np.float64), copies=6)
+        check_memory((band,), np.dtype(np.float64), copies=5 * _MIN_ROW_MODELS + 6)
         if self._modes == "exact":
             check_memory((self._width, self._width), np.dtype(np.float64), copies=3)
 
