@@ -257,6 +257,30 @@ def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact", sp
     return lam, u, steps
 
 
+def whitened_prediction_errors(lam, rho_y, n, noise_var, height) -> list[np.ndarray]:
+    """P_e,t' = T P_e,t Tᵀ per mode (W, n, n) for rows t = 1..height (twin of
+    ``ScalarRowFilter::whitened_errors``): the Riccati of ``modal_riccati`` run in the whitened
+    row basis of ``row_basis`` (prior I, transition T A L, innovation β̃² (T e₀)(T e₀)ᵀ, row t
+    observing row ``row_schedule``'s index of L), where every quantity is O(1) and P_e' stays
+    positive semi-definite; whitening P_e afterwards turned its rounding into an indefinite
+    band for n = 4 at ρ = 0.999."""
+    tmat, lower = row_basis(rho_y, n)
+    a = tmat @ companion(rho_y, n) @ lower
+    q = beta_tilde_sq(rho_y, n) * np.outer(tmat[:, 0], tmat[:, 0])
+    p = np.broadcast_to(np.eye(n), (len(lam), n, n)).copy()
+    with np.errstate(divide="ignore"):  # a mode of variance 0 is not corrected
+        ratio = noise_var / lam
+    out = []
+    for predict, i in row_schedule(n, height):
+        if predict:
+            p = a @ p @ a.T + q
+            p = 0.5 * (p + p.transpose(0, 2, 1))
+        out.append(lam[:, None, None] * p)
+        c = p @ lower[i]
+        p = p - c[:, :, None] * c[:, None, :] / (c @ lower[i] + ratio)[:, None, None]
+    return out
+
+
 def steady_prediction(rho, order, sigma, noise_var, width, tol=1e-13, max_rows=100000):
     """Steady-state prediction covariance P_e,∞ of the optimal row filter, per mode (W, n, n):
     the modal Riccati of ``modal_riccati`` iterated until the relative change is < tol."""
@@ -520,7 +544,8 @@ def scalar_filter_plan(
     if modes == "ends" and span is None:
         raise ValueError("modes=\"ends\" needs the span W' (the Rust filter's ends_span)")
     tmat, lower = row_basis(rho[0], n)
-    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, height, modes, span)
+    lam, u, steps = modal_riccati(rho, order, sigma, noise_var, width, 0, modes, span)
+    steps = [{"pe": pe} for pe in whitened_prediction_errors(lam, rho[0], n, noise_var, height)]
     toeplitz_rows = {
         "exact": range(0),
         "toeplitz": range(width),
@@ -538,14 +563,13 @@ def scalar_filter_plan(
         return lambda jitter: markov_precision(band, m, toeplitz_rows, jitter)
 
     if not transient:
-        pe_inf = steady_prediction(rho, order, sigma, noise_var, width)
+        pe_inf = tmat @ steady_prediction(rho, order, sigma, noise_var, width) @ tmat.T
         steps = [st if t < n else {"pe": pe_inf} for t, st in enumerate(steps)]
     plan, prec, chol, start = [], None, None, []
     fitted, prev_band, prev_change, models = None, None, None, 0
     frozen = False  # once the bands have settled (``settled``), the model stays fixed
     for t, ((predict, i), st) in enumerate(zip(row_schedule(n, height), steps)):
-        pe = tmat @ st["pe"] @ tmat.T
-        pe = 0.5 * (pe + pe.transpose(0, 2, 1))  # exactly symmetric: T is ill-conditioned
+        pe = 0.5 * (st["pe"] + st["pe"].transpose(0, 2, 1))
         if not predict:  # static start: exact stationary prior, accumulated observations
             if t == 0:
                 prior = precision_of(prediction_band_of(pe))  # exact if m ≥ n_x
