@@ -2,6 +2,7 @@
 
 import os
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -669,3 +670,43 @@ def test_the_row_filters_are_scale_free(scale):
 def test_bad_input(call, exc, match):
     with pytest.raises(exc, match=match):
         call(kf.ARFieldModel([0.9, 0.8], [1, 2]))
+
+
+def _posterior_mse(model, noise_var, x, z, missing):
+    """MSE of the exact posterior mean given the observed pixels (dense, small grids)."""
+    h, w = x.shape
+    iy, ix = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    points = np.stack([iy.ravel(), ix.ravel()], -1)
+    cov = model.correlation(points[:, None, :] - points[None, :, :])
+    seen = ~missing.ravel()
+    system = cov[np.ix_(seen, seen)] + noise_var * np.eye(seen.sum())
+    mean = cov[:, seen] @ np.linalg.solve(system, z.ravel()[seen])
+    return np.mean((mean - x.ravel()) ** 2)
+
+
+def test_missing_pixels_at_high_snr_warn_where_the_smoothed_pass_is_unfit():
+    # (2,1) at σ_x²/σ_θ² = 1e4 with 10 % missing: the smoothed pass lies several times
+    # (on some samples orders of magnitude) above the posterior mean's MSE (the row
+    # models assume every pixel observed)
+    model = kf.ARFieldModel(rho=(0.9, 0.9), order=(2, 1))
+    rng = np.random.default_rng(5)
+    x = model.sample((16, 16), seed=5)
+    z = x + 1e-2 * rng.standard_normal(x.shape)
+    missing = rng.random(z.shape) < 0.1
+    z[missing] = np.nan
+    with pytest.warns(RuntimeWarning, match="missing pixels with smooth=True"):
+        estimate = kf.ScalarRowFilter(model, 1e-4, 16, smooth=True).filter(z)
+    assert np.mean((estimate - x) ** 2) > 3 * _posterior_mse(model, 1e-4, x, z, missing)
+
+
+@pytest.mark.parametrize(("noise_var", "smooth"), [(1e-2, True), (1e-4, False)])
+def test_missing_pixels_do_not_warn_where_the_filter_is_fit(noise_var, smooth):
+    model = kf.ARFieldModel(rho=(0.9, 0.9), order=(2, 1))
+    x, z = noisy(model, (16, 16), noise_var, 6)
+    missing = np.random.default_rng(6).random(z.shape) < 0.1
+    z[missing] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        estimate = kf.ScalarRowFilter(model, noise_var, 16, smooth=smooth).filter(z)
+    if smooth:  # measured within 6 % of the posterior at σ_x²/σ_θ² = 100
+        assert np.mean((estimate - x) ** 2) < 1.3 * _posterior_mse(model, noise_var, x, z, missing)
