@@ -673,13 +673,15 @@ def test_bad_input(call, exc, match):
 
 
 def _posterior_mse(model, noise_var, x, z, missing):
-    """MSE of the exact posterior mean given the observed pixels (dense, small grids)."""
+    """MSE of the exact posterior mean given the observed pixels (dense, small grids);
+    noise_var: a scalar or a per-pixel map."""
     h, w = x.shape
     iy, ix = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
     points = np.stack([iy.ravel(), ix.ravel()], -1)
     cov = model.correlation(points[:, None, :] - points[None, :, :])
     seen = ~missing.ravel()
-    system = cov[np.ix_(seen, seen)] + noise_var * np.eye(seen.sum())
+    noise = np.broadcast_to(noise_var, x.shape).ravel()[seen]
+    system = cov[np.ix_(seen, seen)] + np.diag(noise)
     mean = cov[:, seen] @ np.linalg.solve(system, z.ravel()[seen])
     return np.mean((mean - x.ravel()) ** 2)
 
@@ -699,6 +701,25 @@ def test_missing_pixels_at_high_snr_warn_where_the_smoothed_pass_is_unfit():
     assert np.mean((estimate - x) ** 2) > 3 * _posterior_mse(model, 1e-4, x, z, missing)
 
 
+def _spread_noise(shape, noise_var, spread, seed):
+    """Per-pixel σ_θ², log-uniform over [noise_var / spread, noise_var · spread]."""
+    log = np.log(spread)
+    return noise_var * np.exp(np.random.default_rng(seed).uniform(-log, log, shape))
+
+
+def test_much_noisier_pixels_warn_where_the_smoothed_pass_is_unfit():
+    # (2,1), σ_x²/σ_θ² = 100 nominal, per-pixel σ_θ² over 100× either way: measured ~22×
+    # the posterior's MSE (mean of 10 samples)
+    model = kf.ARFieldModel(rho=(0.9, 0.9), order=(2, 1))
+    x = model.sample((16, 16), seed=7)
+    var = _spread_noise(x.shape, 1e-2, 100.0, 7)
+    z = x + np.sqrt(var) * np.random.default_rng(8).standard_normal(x.shape)
+    with pytest.warns(RuntimeWarning, match="noisier pixels with smooth=True"):
+        estimate = kf.ScalarRowFilter(model, 1e-2, 16, smooth=True).filter(z, noise_var=var)
+    posterior = _posterior_mse(model, var, x, z, np.zeros(x.shape, bool))
+    assert np.mean((estimate - x) ** 2) > 2 * posterior
+
+
 @pytest.mark.parametrize(("noise_var", "smooth"), [(1e-2, True), (1e-4, False)])
 def test_missing_pixels_do_not_warn_where_the_filter_is_fit(noise_var, smooth):
     model = kf.ARFieldModel(rho=(0.9, 0.9), order=(2, 1))
@@ -710,3 +731,16 @@ def test_missing_pixels_do_not_warn_where_the_filter_is_fit(noise_var, smooth):
         estimate = kf.ScalarRowFilter(model, noise_var, 16, smooth=smooth).filter(z)
     if smooth:  # measured within 6 % of the posterior at σ_x²/σ_θ² = 100
         assert np.mean((estimate - x) ** 2) < 1.3 * _posterior_mse(model, noise_var, x, z, missing)
+
+
+def test_mildly_noisier_pixels_do_not_warn_and_stay_near_the_posterior():
+    # (2,2), σ_x²/σ_θ² = 1 nominal, per-pixel σ_θ² within 10× either way: measured 1.05×
+    model = kf.ARFieldModel(rho=(0.9, 0.9), order=(2, 2))
+    x = model.sample((16, 16), seed=9)
+    var = _spread_noise(x.shape, 1.0, 10.0, 9)
+    z = x + np.sqrt(var) * np.random.default_rng(10).standard_normal(x.shape)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        estimate = kf.ScalarRowFilter(model, 1.0, 16, smooth=True).filter(z, noise_var=var)
+    posterior = _posterior_mse(model, var, x, z, np.zeros(x.shape, bool))
+    assert np.mean((estimate - x) ** 2) < 1.3 * posterior
