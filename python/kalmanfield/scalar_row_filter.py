@@ -82,9 +82,9 @@ class ScalarRowFilter(RowFilter):
     (2,1) ~5e4×, (4,1) ~4×; at 1e10 (4,1) ~1e13×; at 100 within 6 %. Per-pixel σ_θ²
     log-uniform over [σ²/s, s σ²]: s = 100 at σ_x²/σ² = 100: (2,1) 22×, (4,1) 7×; s = 10:
     1.6× / 2.4× at 1e3, ≤ 1.05× at 1; s = 30 at 10, below the warning: (2,2) 1.2×, (3,3)
-    1.4×). The causal pass stays within ~2 % of the exact
-    causal estimate in the missing-pixel cases (1.09–1.19× at s = 100). :meth:`filter`
-    warns (RuntimeWarning) where the smoothed pass is measured unfit (`UNFIT_SNR_LIMIT`).
+    1.4×). The causal pass stays within ~2 % of the exact causal estimate in the
+    missing-pixel cases (1.09–1.19× at s = 100). :meth:`filter` warns (RuntimeWarning)
+    where the smoothed pass is measured unfit (`UNFIT_SNR_LIMIT`).
     """
 
     __slots__ = ("_ar_order", "_modes")
