@@ -29,17 +29,27 @@ def scene(model, shape, seed, missing=0.15):
     return np.where(weights > 0, z, np.nan), weights
 
 
+@pytest.mark.parametrize("row_models", ["propagated", "nominal"])
 @pytest.mark.parametrize("modes", ["exact", "toeplitz"])
 @pytest.mark.parametrize("smooth", [False, True])
 @pytest.mark.parametrize("rho,order", CASES)
-def test_weighted_rust_equals_reference(rho, order, smooth, modes):
+def test_weighted_rust_equals_reference(rho, order, smooth, modes, row_models):
     model = kf.ARFieldModel(list(rho), list(order), sigma=1.3)
     z, weights = scene(model, (13, 11), seed=sum(order))
     noise = np.where(weights > 0, 1.0 / np.where(weights > 0, weights, 1.0), np.inf)
-    got = kf.ScalarRowFilter(model, 0.7, 11, smooth=smooth, modes=modes).filter(z, noise)
+    filt = kf.ScalarRowFilter(model, 0.7, 11, smooth=smooth, modes=modes, row_models=row_models)
+    got = filt.filter(z, noise)
     plan = ref.scalar_filter_plan(rho, order, 1.3, 0.7, 11, 13, modes=modes)
     want = ref.scalar_row_filter(
-        np.nan_to_num(z), rho, order, 1.3, 0.7, smooth=smooth, plan=plan, weights=weights
+        np.nan_to_num(z),
+        rho,
+        order,
+        1.3,
+        0.7,
+        smooth=smooth,
+        plan=plan,
+        weights=weights,
+        row_models=row_models,
     )
     assert np.all(np.isfinite(got))
     np.testing.assert_allclose(got, want, atol=1e-10, rtol=0)
@@ -182,6 +192,17 @@ def psnr(estimate, clean):
     return 10 * np.log10(1.0 / np.mean((estimate - clean) ** 2))
 
 
+def test_row_models_are_checked_and_pickled():
+    model = kf.ARFieldModel([0.9, 0.9], [2, 2])
+    with pytest.raises(ValueError, match="row_models must be 'propagated' or 'nominal'"):
+        kf.ScalarRowFilter(model, 1.0, 8, row_models="exact")
+    with pytest.raises(ValueError, match="row_models must be 'propagated' or 'nominal'"):
+        kf.denoise(np.ones((8, 8)), 0.1, row_models="plan")
+    filt = kf.ScalarRowFilter(model, 1.0, 8, smooth=True, row_models="nominal")
+    assert pickle.loads(pickle.dumps(filt)).row_models == "nominal"
+    assert kf.ScalarRowFilter(model, 1.0, 8).row_models == "propagated"
+
+
 @pytest.mark.parametrize("name", ["camera", "coins"])
 def test_adaptive_denoise_beats_the_adaptive_wiener_filter(name):
     """The issue's goal on natural images: at least the PSNR of scipy.signal.wiener (5×5)."""
@@ -208,8 +229,10 @@ def test_adaptive_denoise_equals_reference(rho, order, radius, smooth):
     assert np.mean((got - clean) ** 2) < 0.5 * np.mean((z - clean) ** 2)
 
 
-@pytest.mark.parametrize("smooth", [False, True])
-def test_adaptive_denoise_with_missing_pixels_equals_reference(smooth):
+@pytest.mark.parametrize(
+    ("smooth", "row_models"), [(False, "nominal"), (True, "nominal"), (True, "propagated")]
+)
+def test_adaptive_denoise_with_missing_pixels_equals_reference(smooth, row_models):
     """Scattered NaN pixels and a hole wider than the window (whose centre's boxes are
     widened): Rust kernel == NumPy twin, and the fill is close to the clean image."""
     rng = np.random.default_rng(7)
@@ -217,8 +240,8 @@ def test_adaptive_denoise_with_missing_pixels_equals_reference(smooth):
     z = clean + 0.3 * rng.standard_normal(clean.shape)
     z[rng.random(z.shape) < 0.2] = np.nan
     z[5:14, 3:12] = np.nan
-    got = kf.denoise(z, noise_var=0.09, smooth=smooth, window=5)
-    want = ref_adaptive(z, 0.09, (0.7, 0.7), (1, 1), 2, smooth=smooth)
+    got = kf.denoise(z, noise_var=0.09, smooth=smooth, window=5, row_models=row_models)
+    want = ref_adaptive(z, 0.09, (0.7, 0.7), (1, 1), 2, smooth=smooth, row_models=row_models)
     np.testing.assert_allclose(got, want, atol=1e-10, rtol=0)
     missing = np.isnan(z)
     assert np.all(np.isfinite(got))

@@ -88,6 +88,7 @@ class ScalarRowFilter:
         width: int,
         ar_order: int | None = None,
         modes: str = "ends",
+        row_models: str = "propagated",
     ) -> None: ...
     def bandwidth(self) -> int: ...
     def ends_span(self) -> int | None: ...
@@ -121,6 +122,7 @@ def adaptive_denoise_into(
     smooth: bool,
     out: npt.NDArray[np.float64],
     threads: int | None = None,
+    row_models: str = "nominal",
 ) -> None: ...
 
 SIGNAL_FLOOR: float

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import warnings
+import os
 from typing import Literal
 
 import numpy as np
@@ -15,15 +15,18 @@ from .ar_field_model import ARFieldModel
 from .wiener_bound import wiener_error_map
 
 _MODES = ("ends", "exact", "toeplitz")
+_ROW_MODELS = ("propagated", "nominal")
+
+
+def check_row_models(row_models: str) -> None:
+    """ValueError unless `row_models` names a source of the weighted rows' models."""
+    if row_models not in _ROW_MODELS:
+        raise ValueError(f"row_models must be 'propagated' or 'nominal', got {row_models!r}")
+
+
 _MIN_ROW_MODELS = 16
 """The fewest row models a plan may fit however wide the row (``MIN_ROW_MODELS`` of
 ``scalar_row_filter.rs``): what `_check_memory` must find room for."""
-
-
-#: :meth:`ScalarRowFilter.filter` with smooth=True warns when the nominal σ_x²/σ_θ², times
-#: the largest per-pixel σ_θ² over the nominal one (∞ for a missing pixel, which warns from
-#: σ_x²/σ_θ² ≥ this alone), reaches this (class docstring: the measured cases).
-UNFIT_SNR_LIMIT = 1e3
 
 
 class ScalarRowFilter(RowFilter):
@@ -73,21 +76,23 @@ class ScalarRowFilter(RowFilter):
     filtered states, so the working memory is a few rows whatever the height.
 
     Missing pixels and per-pixel noise: :meth:`filter` takes NaN pixels as missing
-    observations and an optional per-pixel noise variance map; they enter the row update
-    only (A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ is refactored per row), the prediction-error model Λ_k
-    stays the one fitted for the nominal `noise_var`. Where the actual weights fall far
-    below the nominal one that model no longer fits the rows below such a pixel and the
-    smoothed pass can lie far above the posterior mean's MSE (16², measured against the
-    exact posterior, ρ = 0.9: 10 % missing at σ_x²/σ_θ² = 1e4: (1,1) ~6×, (2,2) 1.5–1.9×,
-    (2,1) ~5e4×, (4,1) ~4×; at 1e10 (4,1) ~1e13×; at 100 within 6 %. Per-pixel σ_θ²
-    log-uniform over [σ²/s, s σ²]: s = 100 at σ_x²/σ² = 100: (2,1) 22×, (4,1) 7×; s = 10:
-    1.6× / 2.4× at 1e3, ≤ 1.05× at 1; s = 30 at 10, below the warning: (2,2) 1.2×, (3,3)
-    1.4×). The causal pass stays within ~2 % of the exact causal estimate in the
-    missing-pixel cases (1.09–1.19× at s = 100). :meth:`filter` warns (RuntimeWarning)
-    where the smoothed pass is measured unfit (`UNFIT_SNR_LIMIT`).
+    observations and an optional per-pixel noise variance map. They enter the row update
+    (A_t = Λ_t + Σ_ℓ h hᵀ/σ²_θ,tℓ, refactored per row) and the row models: below a missing
+    or much noisier pixel the prediction error is far larger than the nominal model's, so
+    every row's Λ_t is refitted to the prediction covariance the filter itself implies,
+    S A_{t−1}⁻¹ Sᵀ + Q (band of A_{t−1}⁻¹ by selected inversion, the same block AR fit per
+    column), and both passes use it. Measured against the exact posterior mean (16², ρ = 0.9,
+    mean of 6 samples, smoothed): 10 % missing at σ_x²/σ_θ² = 1e4: (1,1) 1.03×, (2,1),
+    (2,2), (4,1), (4,4) ≤ 1.00×, at 1e10 (4,1) 1.00×; per-pixel σ_θ² log-uniform over
+    100× either way at σ_x²/σ_θ² = 100: (2,1), (4,1) 1.00× (the nominal models gave 2–1e4×
+    there, up to divergence). Cost: O(W n_y b²) for the inversion and O(W (m n_y)³) for
+    the fits per row, and one row model (W n_y (b + 1) doubles) per row of the image kept
+    for the passes. row_models="nominal" keeps the plan's models instead (the fast path of
+    :func:`denoise`; unfit at high SNR: 10 % missing at σ_x²/σ_θ² = 1e4 gave (1,1) ~6×,
+    (2,1) ~5e4×, (4,1) ~4× the posterior's MSE, smoothed; within 6 % at ≤ 100).
     """
 
-    __slots__ = ("_ar_order", "_modes")
+    __slots__ = ("_ar_order", "_modes", "_row_models")
 
     def __init__(
         self,
@@ -100,14 +105,19 @@ class ScalarRowFilter(RowFilter):
         mean: float = 0.0,
         threads: int | None = None,
         modes: Literal["ends", "exact", "toeplitz"] = "ends",
+        row_models: Literal["propagated", "nominal"] = "propagated",
     ) -> None:
         unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
         if modes not in _MODES:
             raise ValueError(f"modes must be 'ends', 'exact' or 'toeplitz', got {modes!r}")
         self._modes = modes
+        check_row_models(row_models)
+        self._row_models = row_models
         self._check_memory()
-        self._core = _core.ScalarRowFilter(unit, ratio, self._width, self._ar_order, modes)
+        self._core = _core.ScalarRowFilter(
+            unit, ratio, self._width, self._ar_order, modes, row_models
+        )
 
     def _check_memory(self) -> None:
         """MemoryError for rows too wide to plan: a row system's band (W n_y (b + 1) doubles)
@@ -126,6 +136,11 @@ class ScalarRowFilter(RowFilter):
     def modes(self) -> str:
         """ "ends", "exact" or "toeplitz" (see the class docstring)."""
         return self._modes
+
+    @property
+    def row_models(self) -> str:
+        """ "propagated" or "nominal": the row models of weighted images (class docstring)."""
+        return self._row_models
 
     @property
     def ends_span(self) -> int | None:
@@ -151,30 +166,17 @@ class ScalarRowFilter(RowFilter):
             return self._filter_checked(arr)
         weights = self._weights(arr.shape, noise_var)
         weights[missing] = 0.0  # the kernel ignores the (NaN) value of a weight-0 pixel
-        self._warn_if_unfit(weights)
+        self._check_row_models(arr.shape)
         return self._filter_checked(arr, weights)
 
-    def _warn_if_unfit(self, weights: np.ndarray) -> None:
-        """Warn where the smoothed pass with per-pixel weights is measured unfit (class
-        docstring): the nominal σ_x²/σ_θ² times how far the noisiest pixel's σ_θ² exceeds
-        the nominal one (infinite for a missing pixel) ≥ `UNFIT_SNR_LIMIT`."""
-        if not self._smooth:
-            return
-        nominal = self._model.sigma**2 / self._noise_var  # the weights' unit is σ_x
-        least = float(weights.min()) if weights.size else nominal
-        if least <= 0.0:
-            unfit, what = nominal >= UNFIT_SNR_LIMIT, "missing pixels"
-        else:
-            unfit, what = nominal * nominal / least >= UNFIT_SNR_LIMIT, "noisier pixels"
-        if unfit:
-            warnings.warn(
-                f"{what} with smooth=True at sigma_x^2/noise_var = {nominal:.3g}: the row "
-                "models assume every pixel observed at noise_var, and there the smoothed "
-                "estimate can be far from optimal (up to divergence for n_y >= 2); the "
-                "causal filter (smooth=False) stays near the optimal causal estimate",
-                RuntimeWarning,
-                stacklevel=3,
-            )
+    def _check_row_models(self, shape: tuple[int, ...]) -> None:
+        """MemoryError when the row models of weighted images (one band of W n_y (b + 1)
+        doubles per row, for each frame filtered at once) would not fit."""
+        n_y = self._model.order[0]
+        band = self._width * n_y * (n_y * (min(self.ar_order, 8) + 1))
+        frames = shape[0] if len(shape) == 3 else 1
+        at_once = min(frames, self._threads or os.cpu_count() or 1)
+        check_memory((shape[-2], band), np.dtype(np.float64), copies=max(at_once, 1))
 
     def _weights(self, shape: tuple[int, ...], noise_var: npt.ArrayLike | None) -> np.ndarray:
         """σ_x²/σ_θ² per pixel (the kernel works in units of σ_x), C-contiguous of `shape`."""
@@ -243,7 +245,12 @@ class ScalarRowFilter(RowFilter):
         )
 
     def __reduce__(self):
-        kwargs = {"mean": self._mean, "threads": self._threads, "modes": self._modes}
+        kwargs = {
+            "mean": self._mean,
+            "threads": self._threads,
+            "modes": self._modes,
+            "row_models": self._row_models,
+        }
         args = (self._model, self._noise_var, self._width, self._ar_order, self._smooth)
         return (_rebuild, (args, kwargs))
 

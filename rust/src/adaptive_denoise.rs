@@ -17,7 +17,7 @@ use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
 use crate::row_modes::ModeSet;
-use crate::scalar_row_filter::ScalarRowFilter;
+use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
 use crate::scratch::Scratch;
 use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
@@ -38,6 +38,8 @@ pub struct AdaptiveSettings<'a> {
     pub radius: usize,
     /// Run the RTS pass over the rows.
     pub smooth: bool,
+    /// The filter's row models for the per-pixel weights.
+    pub row_models: RowModels,
 }
 
 /// Denoises `frames` images (row-major height × width) into `out`, frames in parallel.
@@ -90,7 +92,8 @@ fn frame(
     let mut weights = Scratch::zeros(z.len());
     normalise(z, out, &mut scale, &mut residual, &mut weights, noise_var);
     let nominal = 1.0 / sample_median(&weights);
-    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?;
+    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?
+        .with_row_models(settings.row_models);
     let mut detail = Scratch::zeros(z.len());
     filter.filter_image(
         &residual,
@@ -239,6 +242,7 @@ mod tests {
             model,
             radius,
             smooth: true,
+            row_models: RowModels::Nominal,
         }
     }
 

@@ -129,6 +129,14 @@ impl SymmetricBand {
         }
     }
 
+    /// self += other (same order and bandwidth).
+    pub(crate) fn add_band(&mut self, other: &SymmetricBand) {
+        debug_assert!(self.size == other.size && self.bandwidth == other.bandwidth);
+        for (a, b) in self.data.iter_mut().zip(&other.data) {
+            *a += b;
+        }
+    }
+
     /// y = A x.
     pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
         let b = self.bandwidth;

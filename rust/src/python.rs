@@ -12,7 +12,7 @@ use crate::lag_products::lag_products as lag_kernel;
 use crate::noise::{Noise, Real};
 use crate::product_field::product_field_into;
 use crate::row_modes::ModeSet;
-use crate::scalar_row_filter::ScalarRowFilter;
+use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
 use crate::stationary_start::AxisRecursion;
 use crate::vector_row_filter::VectorRowFilter;
 use crate::whitening::whiten_axis;
@@ -454,7 +454,7 @@ pub struct PyScalarRowFilter {
 #[pymethods]
 impl PyScalarRowFilter {
     #[new]
-    #[pyo3(signature = (model, noise_var, width, ar_order=None, modes="ends"))]
+    #[pyo3(signature = (model, noise_var, width, ar_order=None, modes="ends", row_models="propagated"))]
     fn new(
         py: Python<'_>,
         model: &PyFieldModel,
@@ -462,7 +462,9 @@ impl PyScalarRowFilter {
         width: usize,
         ar_order: Option<usize>,
         modes: &str,
+        row_models: &str,
     ) -> PyResult<Self> {
+        let row_models = row_models_of(row_models)?;
         let set = match modes {
             "exact" => ModeSet::Exact,
             "ends" => ModeSet::Ends,
@@ -475,7 +477,9 @@ impl PyScalarRowFilter {
         };
         let inner =
             py.detach(|| ScalarRowFilter::new(&model.inner, noise_var, width, ar_order, set))?;
-        Ok(Self { inner })
+        Ok(Self {
+            inner: inner.with_row_models(row_models),
+        })
     }
 
     /// W' of the exact ends of the "ends" modes (None: no splice).
@@ -582,10 +586,21 @@ fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f6
     Ok(py.detach(|| crate::noise_level::haar_mad_noise_var(values, frames, height, width))?)
 }
 
+/// `RowModels` by name.
+fn row_models_of(name: &str) -> PyResult<RowModels> {
+    match name {
+        "propagated" => Ok(RowModels::Propagated),
+        "nominal" => Ok(RowModels::Nominal),
+        _ => Err(PyValueError::new_err(format!(
+            "row_models must be 'propagated' or 'nominal', got {name:?}"
+        ))),
+    }
+}
+
 /// The adaptive denoiser (README "denoise") of an image (H, W) or a stack (F, H, W) into
 /// `out` (same shape), frames in parallel.
 #[pyfunction]
-#[pyo3(signature = (z, noise_var, model, radius, smooth, out, threads=None))]
+#[pyo3(signature = (z, noise_var, model, radius, smooth, out, threads=None, row_models="nominal"))]
 #[allow(clippy::too_many_arguments)] // the Python signature
 fn adaptive_denoise_into(
     py: Python<'_>,
@@ -596,7 +611,9 @@ fn adaptive_denoise_into(
     smooth: bool,
     mut out: PyReadwriteArrayDyn<'_, f64>,
     threads: Option<usize>,
+    row_models: &str,
 ) -> PyResult<()> {
+    let row_models = row_models_of(row_models)?;
     let shape = z.shape().to_vec();
     let (frames, height, width) = stack_dims(&shape)?;
     let out = output(&mut out, &shape, "out")?;
@@ -606,6 +623,7 @@ fn adaptive_denoise_into(
         model: &model.inner,
         radius,
         smooth,
+        row_models,
     };
     // one frame has no parallel part: it runs on this thread, whose scratch buffers persist
     // between calls (a fresh pool's thread would fault them in anew: `scratch.rs`)

@@ -15,11 +15,11 @@ SIGNAL_FLOOR = 0.01
 NOMINAL_SAMPLE = 1 << 14
 
 
-def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True):
+def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True, row_models="nominal"):
     """Denoise one image (H, W) of noise variance `noise_var`; the detail field ξ has the
     row model (rho, order) with unit variance; window 2·radius + 1. NaN pixels are missing
     (weight 0, σ kept); a box without an observed pixel is widened (radius 2r + 1, …) until
-    it holds one."""
+    it holds one. `row_models`: the filter's (``weighted_systems``)."""
     z = np.asarray(z, dtype=np.float64)
     observed = ~np.isnan(z)
     if not observed.any():
@@ -37,7 +37,15 @@ def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True):
     nominal = 1.0 / _sample_median(weights.ravel())
     plan = scalar_filter_plan(rho, order, 1.0, nominal, z.shape[1], z.shape[0], modes="toeplitz")
     detail = scalar_row_filter(
-        residual, rho, order, 1.0, nominal, smooth=smooth, plan=plan, weights=weights
+        residual,
+        rho,
+        order,
+        1.0,
+        nominal,
+        smooth=smooth,
+        plan=plan,
+        weights=weights,
+        row_models=row_models,
     )
     return mu + np.sqrt(signal) * detail
 

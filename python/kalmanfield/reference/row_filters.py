@@ -440,7 +440,11 @@ def root_contribution(band: list[np.ndarray], ell: int, m: int, jitter: float) -
 
 
 def markov_precision(
-    band: list[np.ndarray], m: int, toeplitz_rows: range = range(0), jitter: float | None = None
+    band: list[np.ndarray],
+    m: int,
+    toeplitz_rows: range = range(0),
+    jitter: float | None = None,
+    periodic: bool = True,
 ) -> sparse.csr_matrix:
     """Precision Λ = Lᵀ D⁻¹ L = Σ_ℓ B_ℓᵀ D_ℓ⁻¹ B_ℓ of the block AR(m) model along the row
     fitted to the band (``column_model``); a column with a full past whose term lies within
@@ -449,7 +453,8 @@ def markov_precision(
     holding the Toeplitz blocks (modes "ends"); a column with a full past that reaches one
     takes the middle column's term without a fit of its own (a fit straddling the splice
     mixes two sources and can be indefinite).  `jitter`: None for the direct fit, else the
-    square-root one (``root_contribution``).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
+    square-root one (``root_contribution``).  `periodic` False: every column its own fit (a
+    band of no row structure, ``propagated_systems``).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
     width, n = band[0].shape[0], band[0].shape[1]
     middle = width // 2
 
@@ -458,7 +463,7 @@ def markov_precision(
             return contribution(*column_model(band, ell, m), n)
         return root_contribution(band, ell, m, jitter)
 
-    central = term(middle) if middle >= m else None
+    central = term(middle) if middle >= m and periodic else None
     steady = range(max(m, toeplitz_rows.start), toeplitz_rows.stop + m) if toeplitz_rows else ()
     rows, cols, vals = [], [], []
     for ell in range(width):
@@ -602,6 +607,12 @@ def scalar_filter_plan(
             prev_change = change
         prev_band = band
         plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
+    if plan:  # what ``weighted_systems`` needs to refit the row models
+        a = tmat @ companion(rho[0], n) @ lower
+        added = lam[:, None, None] * (np.eye(n) - a @ a.T)[None]
+        plan[0].update(
+            transition=a, innovation=prediction_band_of(added), ar_order=m, noise_var=noise_var
+        )
     return plan
 
 
@@ -667,36 +678,86 @@ def _apply_block(a: np.ndarray, state: np.ndarray, n: int) -> np.ndarray:
 
 
 def scalar_row_filter(
-    z, rho, order, sigma, noise_var, ar_order=None, smooth=False, plan=None, weights=None
+    z,
+    rho,
+    order,
+    sigma,
+    noise_var,
+    ar_order=None,
+    smooth=False,
+    plan=None,
+    weights=None,
+    row_models="propagated",
 ):
     """Quasi-optimal row filter (SPEC §2.3 generalised, module doc part 3), O(W n² m) per row.
     z: (H, W) or batch (H, W, B).  Returns the estimate (causal, or RTS-smoothed).
     weights: (H, W) per-pixel 1/σ_θ² (0 = missing pixel), see ``weighted_systems``."""
     causal, smoothed = scalar_row_passes(
-        z, rho, order, sigma, noise_var, ar_order, smooth, plan, weights
+        z, rho, order, sigma, noise_var, ar_order, smooth, plan, weights, row_models
     )
     return smoothed if smooth else causal
 
 
-def weighted_systems(plan, lower, weights):
+def weighted_systems(plan, lower, weights, row_models="propagated"):
     """Banded Cholesky factors of A_t = Λ_t + Σ_ℓ w_tℓ h hᵀ (block ℓ) for per-pixel weights
-    w = 1/σ_θ² (0 = missing): the model Λ_t stays the one fitted for the nominal noise; the
-    start rows accumulate their observations (twin of the Rust weighted rows)."""
+    w = 1/σ_θ² (0 = missing): the start rows keep the plan's prior and accumulate their
+    observations; the later rows keep the plan's Λ_t down to the first row whose weights
+    depart from the nominal 1/σ_θ² (beyond 1e-12 relative), and after it every row's Λ_t is
+    refitted to S A_{t−1}⁻¹ Sᵀ + Q (``propagated_system``; twin of the Rust
+    ``propagated_models``); with row_models "nominal" every row keeps the plan's."""
     start, out = None, []
+    nominal = 1.0 / plan[0]["noise_var"]
+    departed = False
     for step, row_weights in zip(plan, weights):
         h = lower[step["index"]]
         obs = sparse.kron(sparse.diags(row_weights), np.outer(h, h), format="csr")
-        if step["predict"]:
-            system = step["prec"] + obs
+        if step["predict"] and departed and row_models == "propagated":
+            chol = propagated_system(plan[0], step, out[-1], obs)
+        elif step["predict"]:
+            chol = banded_cholesky(step["prec"] + obs, step["bandwidth"])
         else:
             start = obs if start is None else start + obs
-            system = step["prec"] + start
-        out.append(banded_cholesky(system, step["bandwidth"]))
+            chol = banded_cholesky(step["prec"] + start, step["bandwidth"])
+        departed = departed or bool(np.any(np.abs(row_weights - nominal) > 1e-12 * nominal))
+        out.append(chol)
     return out
 
 
+def propagated_system(head, step, previous, obs):
+    """The factor of A_t = Λ_t + obs with Λ_t fitted (``markov_precision``, every column its
+    own fit) to the band of S A_{t−1}⁻¹ Sᵀ + Q, Q = σ² R_x ⊗ (I − S Sᵀ) (`head`: the plan's
+    first step, holding S, Q's band and m); the direct fit, else the square-root one with the
+    smallest working jitter of JITTERS, else the plan's Λ_t (twin of
+    ``ScalarRowFilter::propagated_model``; A_{t−1}⁻¹ dense here)."""
+    a, m, bw = head["transition"], head["ar_order"], step["bandwidth"]
+    n = a.shape[0]
+    size = previous.shape[1]
+    width = size // n
+    z = cho_solve_banded((previous, False), np.eye(size)).reshape(width, n, width, n)
+    band = [
+        np.einsum("ab,lbc,dc->lad", a, z[np.arange(width - d), :, np.arange(d, width), :], a) + q
+        for d, q in enumerate(head["innovation"])
+    ]
+    for jitter in (None, *JITTERS):
+        try:
+            prec = markov_precision(band, m, jitter=jitter, periodic=False)
+            return banded_cholesky(prec + obs, bw)
+        except np.linalg.LinAlgError:
+            continue
+    return banded_cholesky(step["prec"] + obs, bw)
+
+
 def scalar_row_passes(
-    z, rho, order, sigma, noise_var, ar_order=None, smooth=True, plan=None, weights=None
+    z,
+    rho,
+    order,
+    sigma,
+    noise_var,
+    ar_order=None,
+    smooth=True,
+    plan=None,
+    weights=None,
+    row_models="propagated",
 ):
     """Both passes of ``scalar_row_filter``: (causal estimate, smoothed estimate or None)."""
     zb, single = _as_batch(z)
@@ -710,7 +771,7 @@ def scalar_row_passes(
         weights = np.full((height, width), 1.0 / noise_var)
     else:
         weights = np.asarray(weights, dtype=np.float64)
-        chols = weighted_systems(plan, lower, weights)
+        chols = weighted_systems(plan, lower, weights, row_models)
     a = tmat @ companion(rho[0], n) @ lower  # transition in the whitened basis
     state = np.zeros((width * n, nb))
     info = np.zeros((width * n, nb))  # Σ Hᵀ w z during the static start
@@ -757,7 +818,15 @@ def scalar_row_passes(
 
 
 def scalar_nominal_error_map(
-    rho, order, sigma, noise_var, shape, ar_order=None, plan=None, weights=None
+    rho,
+    order,
+    sigma,
+    noise_var,
+    shape,
+    ar_order=None,
+    plan=None,
+    weights=None,
+    row_models="propagated",
 ):
     """The error variance the causal quasi-optimal filter assumes: per pixel h_tᵀ [A_t⁻¹]_ℓℓ h_t,
     with A_t⁻¹ dense (twin of the Rust selected inversion; small grids only). weights: (H, W)
@@ -770,7 +839,8 @@ def scalar_nominal_error_map(
     if weights is None:
         chols = [step["chol"] for step in plan[:height]]
     else:
-        chols = weighted_systems(plan[:height], lower, np.asarray(weights, dtype=np.float64))
+        weights = np.asarray(weights, dtype=np.float64)
+        chols = weighted_systems(plan[:height], lower, weights, row_models)
     out = np.empty((height, width))
     for t, (step, chol) in enumerate(zip(plan[:height], chols)):
         cov = cho_solve_banded((chol, False), np.eye(width * n))
