@@ -21,9 +21,10 @@
 //! The band of P_e comes from the modes of `row_modes`: the exact eigenbasis of the row, the
 //! Fourier modes of the infinite row (no O(W³) step), or both spliced (exact ends of a
 //! W'-point row, Fourier interior; W' chosen here by `ends_modes`).
-//! Per-pixel noise variances (and missing pixels, weight 0) enter A_k only: the weighted
-//! variant refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row (the model Λ_k stays the one fitted
-//! for the nominal noise variance).
+//! Per-pixel noise variances (and missing pixels, weight 0) enter A_k: the weighted variant
+//! refactors A_k = Λ_k + Σ_ℓ h hᵀ/σ²_θ,kℓ row by row, and from the first row whose weights
+//! depart from the nominal ones Λ_k is refitted to the filter's own prediction covariance
+//! (`propagated_models`; `RowModels::Nominal` keeps the plan's).
 
 use crate::axis_model::AxisModel;
 use crate::band_ldl::{BandLdlBatch, LANES};

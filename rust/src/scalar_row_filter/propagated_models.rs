@@ -6,7 +6,8 @@
 //! then pairs the actual A_t with a Λ_{t+1} that does not follow from it (measured: 2–1e4×
 //! the exact posterior's MSE at σ_x²/σ_θ² = 1e4 with 10 % of the pixels missing).
 //!
-//! Here every predicted row's model is refitted to the covariance the filter itself implies:
+//! Here, from the first row whose weights depart from the nominal ones, every predicted row's
+//! model is refitted to the covariance the filter itself implies:
 //!
 //!   P_e,t = S A_{t−1}⁻¹ Sᵀ + Q,   Q = σ² R_x ⊗ (I − S Sᵀ)   (whitened basis),
 //!
@@ -114,8 +115,8 @@ impl ScalarRowFilter {
         predicted: &Lags,
         observed: &SymmetricBand,
     ) -> Result<(SymmetricBand, SymmetricBand)> {
-        let jitters = std::iter::once(0.0).chain(JITTERS);
-        for jitter in jitters {
+        // JITTERS[0] = 0: the plain fit first
+        for jitter in JITTERS {
             if let Some(precision) = self.column_fits(predicted, jitter) {
                 if let Ok(z) = sum(&precision, observed).inverse_band() {
                     return Ok((precision, z));
