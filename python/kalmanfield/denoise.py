@@ -156,7 +156,7 @@ def denoise(
     row_models : the adaptive filter's row models for its per-pixel weights (see
         :class:`ScalarRowFilter`). "nominal" (default): the plan's, fitted for the nominal
         noise ratio, the fast path. "propagated": refitted row by row to the weighted
-        systems, +0.1–0.3 dB on camera, astronaut, coins and moon (σ = 0.1) at 3–4× the
+        systems, +0.1–0.3 dB on camera, astronaut, coins and moon (σ = 0.1) at 3.5–5× the
         time (README). The stationary path (adaptive=False) always uses
         :class:`ScalarRowFilter`'s default, "propagated", for its missing pixels.
     adaptive=False : one stationary model for the whole image. `model`: the field model of x;
