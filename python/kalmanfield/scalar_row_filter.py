@@ -167,10 +167,10 @@ class ScalarRowFilter(RowFilter):
             return self._filter_checked(arr)
         weights = self._weights(arr.shape, noise_var)
         weights[missing] = 0.0  # the kernel ignores the (NaN) value of a weight-0 pixel
-        self._check_row_models(arr.shape)
+        self._check_models_memory(arr.shape)
         return self._filter_checked(arr, weights)
 
-    def _check_row_models(self, shape: tuple[int, ...]) -> None:
+    def _check_models_memory(self, shape: tuple[int, ...]) -> None:
         """MemoryError when the row models of weighted images (one band of W n_y (b + 1)
         doubles per row, for each frame filtered at once) would not fit."""
         n_y = self._model.order[0]

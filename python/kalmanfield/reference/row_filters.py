@@ -454,7 +454,7 @@ def markov_precision(
     takes the middle column's term without a fit of its own (a fit straddling the splice
     mixes two sources and can be indefinite).  `jitter`: None for the direct fit, else the
     square-root one (``root_contribution``).  `periodic` False: every column its own fit (a
-    band of no row structure, ``propagated_systems``).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
+    band of no row structure, ``propagated_system``).  Interleaved ordering (ℓ, i) ↦ ℓ·n + i."""
     width, n = band[0].shape[0], band[0].shape[1]
     middle = width // 2
 
