@@ -32,9 +32,17 @@ pub(crate) fn selected_inverse(l: &[f64], n: usize, b: usize) -> Vec<f64> {
             // Σ_k L_ki Z_kj: k ≤ j from row j of the band (contiguous), k > j down column j
             let row_j = &z[band_index(b, j, i + 1)..=band_index(b, j, j)];
             let near: f64 = column[..j - i].iter().zip(row_j).map(|(c, v)| c * v).sum();
-            let far: f64 = (j + 1..=last)
-                .map(|k| column[k - i - 1] * z[band_index(b, k, j)])
-                .sum();
+            // Z_kj for k = j + 1..=last: b apart in the band storage
+            let far: f64 = if j < last {
+                let down = z[band_index(b, j + 1, j)..].iter().step_by(b);
+                column[j - i..below]
+                    .iter()
+                    .zip(down)
+                    .map(|(c, v)| c * v)
+                    .sum()
+            } else {
+                0.0
+            };
             z[band_index(b, j, i)] = -(near + far) * inverse_pivot;
         }
         let sum: f64 = (0..below)

@@ -108,6 +108,14 @@ impl SymmetricBand {
         self.data[at] += value;
     }
 
+    /// Row i of the lower band: entries (i, i − bandwidth..=i), the diagonal last (those
+    /// before column 0 are padding).
+    #[inline(always)]
+    pub(crate) fn lower_row_mut(&mut self, i: usize) -> &mut [f64] {
+        let width = self.bandwidth + 1;
+        &mut self.data[i * width..(i + 1) * width]
+    }
+
     /// Entry (i, k) of the lower band: i − bandwidth ≤ k ≤ i.
     #[inline(always)]
     pub(crate) fn lower_entry(&self, i: usize, k: usize) -> f64 {
@@ -280,8 +288,11 @@ fn factor_in_place(l: &mut [f64], n: usize, b: usize) -> Result<()> {
         for k in first..=i {
             let mut sum = l[band_index(b, i, k)];
             let start = first.max(k.saturating_sub(b));
-            for p in start..k {
-                sum -= l[band_index(b, i, p)] * l[band_index(b, k, p)];
+            // L_ip and L_kp for p = start..k: contiguous in rows i and k
+            let (at_i, at_k) = (band_index(b, i, start), band_index(b, k, start));
+            let len = k - start;
+            for (x, y) in l[at_i..at_i + len].iter().zip(&l[at_k..at_k + len]) {
+                sum -= x * y;
             }
             if k == i {
                 if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {

@@ -143,12 +143,22 @@ impl ScalarRowFilter {
                         *value = z.get(ell * n + i, (ell + d) * n + j);
                     }
                 }
-                let sz: [[f64; 4]; 4] = std::array::from_fn(|a| {
-                    std::array::from_fn(|j| (0..n).map(|i| s[a][i] * zb[i][j]).sum())
-                });
+                // only the n × n corners: the sums run over 0..n
+                let mut sz = [[0.0; 4]; 4];
+                for (a, row) in sz.iter_mut().enumerate().take(n) {
+                    for (j, value) in row.iter_mut().enumerate().take(n) {
+                        for i in 0..n {
+                            *value += s[a][i] * zb[i][j];
+                        }
+                    }
+                }
                 for a in 0..n {
                     for b in 0..n {
-                        block[a * n + b] += (0..n).map(|j| sz[a][j] * s[b][j]).sum::<f64>();
+                        let mut value = 0.0;
+                        for j in 0..n {
+                            value += sz[a][j] * s[b][j];
+                        }
+                        block[a * n + b] += value;
                     }
                 }
             }
@@ -170,9 +180,8 @@ impl ScalarRowFilter {
     /// rows of L⁻¹ are [−Γ_ℓ, I] and their D the innovation variances of the block AR fit
     /// ([P 3.34–3.36]), so the term is Σ_k m_kᵀ m_k / D_k over those rows m_k: the
     /// square-root fit of `root_contribution` without its square roots and allocations (this
-    /// runs for every column of every weighted row). For the columns ℓ < m, with a shorter
-    /// past, C is padded to order `size` by leading identity rows (uncorrelated with the rest:
-    /// their terms vanish).
+    /// runs for every column of every weighted row), four columns at a time, one per vector
+    /// lane (`fit_lanes`).
     fn fit_columns(
         &self,
         lags: &Lags,
@@ -180,80 +189,231 @@ impl ScalarRowFilter {
         out: &mut SymmetricBand,
         size: usize,
     ) -> Option<()> {
-        let (w, n, m) = (self.width(), self.dynamics.order, self.ar_order);
-        let nn = n * n;
         let s = size.min(MAX_JOINT);
-        let mut joint = [[0.0f64; MAX_JOINT]; MAX_JOINT];
-        let mut pivots = [0.0f64; MAX_JOINT];
-        for ell in 0..w {
-            let first = ell.saturating_sub(m);
-            let blocks = ell - first + 1;
-            let lead = s - blocks * n;
-            for (q, row) in joint.iter_mut().enumerate().take(s) {
-                row[..lead.min(q)].fill(0.0);
-                if q < lead {
-                    row[q] = 1.0;
-                }
-            }
-            for i in 0..blocks {
-                for j in 0..=i {
-                    // block (i, j) of C: Cov(v_{first+i}, v_{first+j}), the transpose of lag
-                    // i − j's block at column first + j
-                    let column = first + j;
-                    let at = &lags[i - j][column * nn..(column + 1) * nn];
-                    for r in 0..n {
-                        let row = &mut joint[lead + i * n + r];
-                        for c in 0..n {
-                            row[lead + j * n + c] = if i == j {
-                                0.5 * (at[c * n + r] + at[r * n + c])
-                            } else {
-                                at[c * n + r]
-                            };
-                        }
+        let mut fit = LaneFit::new();
+        for ell0 in (0..self.width()).step_by(LANES) {
+            self.fit_lanes(lags, jitter, out, s, ell0, &mut fit)?;
+        }
+        Some(())
+    }
+
+    /// The terms of columns ℓ₀ + l, l = 0..4, below the width, added to `out` (`fit_columns`,
+    /// joint order `s`), column ℓ₀ + l in lane l of a packed lower triangle. For ℓ < m, with a
+    /// shorter past, C is padded to order `s` by leading identity rows (uncorrelated with the
+    /// rest: their terms vanish); a lane beyond the width holds the identity and adds nothing.
+    fn fit_lanes(
+        &self,
+        lags: &Lags,
+        jitter: f64,
+        out: &mut SymmetricBand,
+        s: usize,
+        ell0: usize,
+        fit: &mut LaneFit,
+    ) -> Option<()> {
+        let (w, n) = (self.width(), self.dynamics.order);
+        let LaneFit {
+            joint,
+            pivots,
+            rows,
+            terms,
+        } = fit;
+        // (first column, leading identity rows) of each lane's past
+        let mut pasts = [(0, s); LANES];
+        for (l, past) in pasts.iter_mut().enumerate() {
+            if ell0 + l < w {
+                *past = self.joint_covariance(lags, s, ell0 + l, l, joint);
+            } else {
+                for q in 0..s {
+                    for c in 0..=q {
+                        joint[packed(q, c)][l] = if c == q { 1.0 } else { 0.0 };
                     }
                 }
             }
-            let top = (lead..s).map(|q| joint[q][q]).fold(0.0, f64::max);
-            for (r, row) in joint.iter_mut().enumerate().take(s) {
-                row[r] += jitter * top;
+        }
+        let mut top = [0.0f64; LANES];
+        for (l, &(_, lead)) in pasts.iter().enumerate() {
+            top[l] = (lead..s)
+                .map(|q| joint[packed(q, q)][l])
+                .fold(0.0, f64::max);
+        }
+        for q in 0..s {
+            let diagonal = &mut joint[packed(q, q)];
+            for l in 0..LANES {
+                diagonal[l] += jitter * top[l];
             }
-            for i in 0..s {
-                for k in 0..i {
-                    let mut sum = joint[i][k];
-                    for p in 0..k {
-                        sum -= joint[i][p] * joint[k][p] * pivots[p];
-                    }
-                    joint[i][k] = sum / pivots[k];
-                }
-                let mut pivot = joint[i][i];
-                for p in 0..i {
-                    pivot -= joint[i][p] * joint[i][p] * pivots[p];
-                }
-                if !(pivot > 0.0 && pivot.is_finite()) {
-                    return None;
-                }
-                pivots[i] = pivot;
+        }
+        if !ldl_lanes(joint, pivots, s) {
+            return None;
+        }
+        terms_lanes(joint, pivots, rows, terms, s, n);
+        // lane by lane, so that the terms of the columns reach each entry in column order
+        let offset = out.bandwidth();
+        for ((l, lane), &(first, lead)) in terms.iter().enumerate().zip(&pasts) {
+            if ell0 + l >= w {
+                break;
             }
-            // rows size − n.. of L⁻¹ (unit lower): m_r = 1, m_c = −Σ_{j=c+1..r} m_j L_jc
-            let mut rows = [[0.0f64; MAX_JOINT]; 4];
-            let mut scale = [0.0f64; 4];
-            for (k, row) in rows.iter_mut().enumerate().take(n) {
-                let r = s - n + k;
-                row[r] = 1.0;
-                for c in (0..r).rev() {
-                    let sum: f64 = (c + 1..=r).map(|j| row[j] * joint[j][c]).sum();
-                    row[c] = -sum;
-                }
-                scale[k] = 1.0 / pivots[r];
-            }
+            let base = first * n;
             for r in lead..s {
-                for c in lead..=r {
-                    let value: f64 = (0..n).map(|k| rows[k][r] * rows[k][c] * scale[k]).sum();
-                    out.add(first * n + r - lead, first * n + c - lead, value);
+                // entry (base + r − lead, base + c − lead) sits at offset − r + c of its row
+                let row = &mut out.lower_row_mut(base + r - lead)[offset - r + lead..=offset];
+                for (entry, term) in row.iter_mut().zip(&lane[packed(r, lead)..]) {
+                    *entry += term;
                 }
             }
         }
         Some(())
+    }
+
+    /// Lane `l` of `joint` = C of column ℓ (`fit_columns`), padded to order `s` by leading
+    /// identity rows; returns (the first column of ℓ's past, the number of those rows).
+    fn joint_covariance(
+        &self,
+        lags: &Lags,
+        s: usize,
+        ell: usize,
+        l: usize,
+        joint: &mut [[f64; LANES]],
+    ) -> (usize, usize) {
+        let (n, m) = (self.dynamics.order, self.ar_order);
+        let nn = n * n;
+        let first = ell.saturating_sub(m);
+        let blocks = ell - first + 1;
+        let lead = s - blocks * n;
+        for q in 0..s {
+            for c in 0..q.min(lead) {
+                joint[packed(q, c)][l] = 0.0;
+            }
+            if q < lead {
+                joint[packed(q, q)][l] = 1.0;
+            }
+        }
+        for i in 0..blocks {
+            for j in 0..=i {
+                // block (i, j) of C: Cov(v_{first+i}, v_{first+j}), the transpose of lag
+                // i − j's block at column first + j
+                let column = first + j;
+                let at = &lags[i - j][column * nn..(column + 1) * nn];
+                for r in 0..n {
+                    let row = packed(lead + i * n + r, lead + j * n);
+                    // the lower triangle only: c ≤ r within a diagonal block
+                    let columns = if i == j { r + 1 } else { n };
+                    for c in 0..columns {
+                        joint[row + c][l] = if i == j {
+                            0.5 * (at[c * n + r] + at[r * n + c])
+                        } else {
+                            at[c * n + r]
+                        };
+                    }
+                }
+            }
+        }
+        (first, lead)
+    }
+}
+
+/// Columns fitted at once by `fit_lanes`.
+const LANES: usize = 4;
+
+/// Where entry (i, k), k ≤ i, of a lower triangle is kept in packed row-major order.
+#[inline(always)]
+fn packed(i: usize, k: usize) -> usize {
+    i * (i + 1) / 2 + k
+}
+
+/// C = L D Lᵀ in place, lane by lane (L unit lower, below the diagonal of the packed `joint`;
+/// D in `pivots`); false if some pivot is not positive and finite.
+fn ldl_lanes(joint: &mut [[f64; LANES]], pivots: &mut [[f64; LANES]; MAX_JOINT], s: usize) -> bool {
+    for i in 0..s {
+        let row_i = packed(i, 0);
+        for k in 0..i {
+            let row_k = packed(k, 0);
+            let mut sum = joint[row_i + k];
+            for p in 0..k {
+                let (a, b, d) = (joint[row_i + p], joint[row_k + p], pivots[p]);
+                for l in 0..LANES {
+                    sum[l] -= a[l] * b[l] * d[l];
+                }
+            }
+            for l in 0..LANES {
+                sum[l] /= pivots[k][l];
+            }
+            joint[row_i + k] = sum;
+        }
+        let mut pivot = joint[row_i + i];
+        for p in 0..i {
+            let (a, d) = (joint[row_i + p], pivots[p]);
+            for l in 0..LANES {
+                pivot[l] -= a[l] * a[l] * d[l];
+            }
+        }
+        if !pivot.iter().all(|&v| v > 0.0 && v.is_finite()) {
+            return false;
+        }
+        pivots[i] = pivot;
+    }
+    true
+}
+
+/// `terms` (packed, lane by lane) = Σ_k m_kᵀ m_k / D_k over the last `n` rows m_k of L⁻¹,
+/// from the factor of `ldl_lanes`; `rows` keeps those rows.
+fn terms_lanes(
+    joint: &[[f64; LANES]],
+    pivots: &[[f64; LANES]; MAX_JOINT],
+    rows: &mut [[[f64; LANES]; MAX_JOINT]; 4],
+    terms: &mut [Vec<f64>; LANES],
+    s: usize,
+    n: usize,
+) {
+    // rows s − n.. of L⁻¹ (unit lower): m_r = 1, m_c = −Σ_{j=c+1..r} m_j L_jc; entries
+    // beyond r stay zero from `LaneFit::new`
+    let mut scale = [[0.0f64; LANES]; 4];
+    for (k, row) in rows.iter_mut().enumerate().take(n) {
+        let r = s - n + k;
+        row[r] = [1.0; LANES];
+        for c in (0..r).rev() {
+            let mut sum = [0.0f64; LANES];
+            for j in c + 1..=r {
+                let (a, b) = (row[j], joint[packed(j, c)]);
+                for l in 0..LANES {
+                    sum[l] += a[l] * b[l];
+                }
+            }
+            row[c] = sum.map(|v| -v);
+        }
+        scale[k] = pivots[r].map(|d| 1.0 / d);
+    }
+    for r in 0..s {
+        for c in 0..=r {
+            let mut value = [0.0f64; LANES];
+            for k in 0..n {
+                for l in 0..LANES {
+                    value[l] += rows[k][r][l] * rows[k][c][l] * scale[k][l];
+                }
+            }
+            for (lane, v) in terms.iter_mut().zip(value) {
+                lane[packed(r, c)] = v;
+            }
+        }
+    }
+}
+
+/// The work space of `fit_lanes`, one lane per column: C packed and then its L D Lᵀ factor, D,
+/// the last n_y rows of L⁻¹, and the columns' terms of Λ (packed likewise, lane by lane).
+struct LaneFit {
+    joint: Vec<[f64; LANES]>,
+    pivots: [[f64; LANES]; MAX_JOINT],
+    rows: [[[f64; LANES]; MAX_JOINT]; 4],
+    terms: [Vec<f64>; LANES],
+}
+
+impl LaneFit {
+    fn new() -> Self {
+        Self {
+            joint: vec![[0.0; LANES]; packed(MAX_JOINT, 0)],
+            pivots: [[0.0; LANES]; MAX_JOINT],
+            rows: [[[0.0; LANES]; MAX_JOINT]; 4],
+            terms: std::array::from_fn(|_| vec![0.0; packed(MAX_JOINT, 0)]),
+        }
     }
 }
 
@@ -293,8 +453,15 @@ mod tests {
     }
 
     #[test]
-    fn the_unrolled_column_fits_equal_the_direct_fit() {
-        for (order, rho) in [([1, 1], 0.9), ([2, 2], 0.9), ([3, 2], 0.8), ([2, 4], 0.7)] {
+    fn the_lane_fits_equal_the_direct_fit() {
+        // width 23: the first lanes with a shorter past, the last group one lane short
+        for (order, rho) in [
+            ([1, 1], 0.9),
+            ([2, 2], 0.9),
+            ([3, 2], 0.8),
+            ([2, 4], 0.7),
+            ([4, 4], 0.6),
+        ] {
             let (filter, lags) = predicted(order, rho, 23);
             let n = filter.dynamics.order;
             let band: Vec<Mat<f64>> = lags
@@ -302,13 +469,13 @@ mod tests {
                 .map(|lag| Mat::from_fn(lag.len() / (n * n), n * n, |l, ab| lag[l * n * n + ab]))
                 .collect();
             let direct = filter.precision(&band, None).unwrap();
-            let unrolled = filter.column_fits(&lags, 0.0).unwrap();
+            let lanes = filter.column_fits(&lags, 0.0).unwrap();
             let scale = (0..direct.size())
                 .map(|i| direct.get(i, i))
                 .fold(0.0, f64::max);
             for i in 0..direct.size() {
                 for k in i.saturating_sub(direct.bandwidth())..=i {
-                    let (a, b) = (direct.get(i, k), unrolled.get(i, k));
+                    let (a, b) = (direct.get(i, k), lanes.get(i, k));
                     assert!(
                         (a - b).abs() <= 1e-10 * scale,
                         "{order:?} ({i}, {k}): {a} vs {b}"
