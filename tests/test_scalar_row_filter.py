@@ -586,6 +586,18 @@ def test_a_plan_too_large_for_the_memory_is_refused_before_the_kernel():
         kf.ScalarRowFilter(model, 1.0, 2 * 10**6)
 
 
+@pytest.mark.skipif(
+    os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") > 100 * 2**30,
+    reason="the propagated row models of this height fit in more than 100 GiB of memory",
+)
+def test_an_error_map_whose_row_models_do_not_fit_is_refused_before_the_kernel():
+    # (4,4), W = 8, 1e8 rows: the map itself is 6.4 GB, the propagated models (one band of
+    # 640 doubles per row) 512 GB
+    model = kf.ARFieldModel([0.9, 0.9], [4, 4])
+    with pytest.raises(MemoryError, match="GiB"):
+        kf.ScalarRowFilter(model, 1.0, 8).error_variance(10**8, noise_var=2.0)
+
+
 @pytest.mark.parametrize("scale", [1e-150, 1e150])
 def test_the_row_filters_are_scale_free(scale):
     # the kernels work in units of σ_x: at σ_x ~ 1e±150 the variances' products overflowed

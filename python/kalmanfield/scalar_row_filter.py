@@ -171,8 +171,11 @@ class ScalarRowFilter(RowFilter):
         return self._filter_checked(arr, weights)
 
     def _check_models_memory(self, shape: tuple[int, ...]) -> None:
-        """MemoryError when the row models of weighted images (one band of W n_y (b + 1)
-        doubles per row, for each frame filtered at once) would not fit."""
+        """MemoryError when the propagated row models of weighted images (one band of
+        W n_y (b + 1) doubles per row, for each frame filtered at once) would not fit; the
+        nominal ones keep nothing per row."""
+        if self._row_models == "nominal":
+            return
         n_y = self._model.order[0]
         band = self._width * n_y * (n_y * (min(self.ar_order, 8) + 1))
         frames = shape[0] if len(shape) == 3 else 1
@@ -211,8 +214,9 @@ class ScalarRowFilter(RowFilter):
         noise_var: the per-pixel σ_θ² map the image will be filtered with (as in
         :meth:`filter`: broadcastable to (height, W), > 0, inf = missing pixel; for an image
         z with NaN pixels, ``np.where(np.isnan(z), np.inf, self.noise_var)``); the map is then
-        that of the weighted systems the filter solves, one selected inversion per row (rows
-        in parallel). None: the nominal noise_var everywhere.
+        that of the weighted systems the filter solves, one selected inversion per row (row
+        after row with the propagated row models, which it makes as :meth:`filter` does; in
+        parallel with row_models="nominal"). None: the nominal noise_var everywhere.
 
         smooth=True: the smoothed covariance of this filter's model is not banded, so the map
         returned is the optimal smoother's, :func:`wiener_error_map` (O(H³ + W³)), which the
@@ -230,6 +234,7 @@ class ScalarRowFilter(RowFilter):
             return wiener_error_map(self._model, self._noise_var, (height, self._width))
         if noise_var is None:
             return self._in_image_units(self._core.error_variance(height))
+        self._check_models_memory((height, self._width))
         weights = self._weights((height, self._width), noise_var)
         return self._in_image_units(self._core.error_variance(height, weights))
 
@@ -242,7 +247,7 @@ class ScalarRowFilter(RowFilter):
         return (
             f"ScalarRowFilter({self._model!r}, noise_var={self._noise_var}, "
             f"width={self._width}, ar_order={self.ar_order}, smooth={self._smooth}, "
-            f"modes={self._modes!r})"
+            f"modes={self._modes!r}, row_models={self._row_models!r})"
         )
 
     def __reduce__(self):
