@@ -2,31 +2,18 @@
 
 import os
 import pickle
+import subprocess
+import sys
 import warnings
 
 import numpy as np
 import pytest
-from conftest import noisy
+from conftest import exact_mse, exact_mse_map, noisy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import kalmanfield as kf
 from kalmanfield.reference import row_filters as ref
-
-
-def exact_mse_map(filt, model, noise_var, shape):
-    """Exact per-pixel MSE map of a linear filter (basis images, no Monte Carlo)."""
-
-    def estimator(zb):
-        return np.moveaxis(filt.filter(np.ascontiguousarray(np.moveaxis(zb, 2, 0))), 0, 2)
-
-    rho, order, sigma = model.rho, model.order, model.sigma
-    return ref.linear_estimator_mse(estimator, rho, order, sigma, noise_var, shape)
-
-
-def exact_mse(filt, model, noise_var, shape):
-    """Exact mean MSE of a linear filter."""
-    return float(exact_mse_map(filt, model, noise_var, shape).mean())
 
 
 @given(
@@ -574,28 +561,46 @@ def test_four_rows_at_rho_0999_stay_optimal(order, noise_var):
         assert floor * (1 - 1e-6) <= mse < 1.001 * floor, (smooth, mse / floor)
 
 
-@pytest.mark.skipif(
-    os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") > 100 * 2**30,
-    reason="the plan of this width fits in more than 100 GiB of memory",
-)
-def test_a_plan_too_large_for_the_memory_is_refused_before_the_kernel():
-    # (4,4), W = 2e6: one row system's band holds 1.3 GB (6 copies fit in 24 GiB, the check
-    # before 2026-11-27), but the plan may hold 16 row models of 5 bands each (~110 GB)
-    model = kf.ARFieldModel([0.9, 0.9], [4, 4])
-    with pytest.raises(MemoryError, match="GiB"):
-        kf.ScalarRowFilter(model, 1.0, 2 * 10**6)
+PEAK_MEMORY_OF_A_WEIGHTED_IMAGE = """
+import resource, sys, numpy as np, kalmanfield as kf
+f = kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.9], [4, 4]), 1.0, 16)
+var = np.full((10000, 16), 1.0)
+var[::7, 3] = np.inf
+z = np.zeros((10000, 16))
+call = {"map": lambda v: f.error_variance(len(v), v), "causal": lambda v: f.filter(z[:len(v)], v)}
+call[sys.argv[1]](var[:8])
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+call[sys.argv[1]](var)
+print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) * 1024)
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="ru_maxrss in KiB is Linux's convention")
+@pytest.mark.parametrize("call", ["map", "causal"])
+def test_an_error_map_and_a_causal_pass_keep_no_row_models(call):
+    # (4,4), W = 16, 10^4 rows, a missing pixel every 7 rows: the propagated row models of
+    # the image (one band of 16·4·20 doubles per row) would take 102 MB; the map, the image
+    # and the weights take 1.3 MB each, and the models are dropped row by row
+    proc = subprocess.run(
+        [sys.executable, "-c", PEAK_MEMORY_OF_A_WEIGHTED_IMAGE, call],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert int(proc.stdout) < 30e6
 
 
 @pytest.mark.skipif(
     os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") > 100 * 2**30,
     reason="the propagated row models of this height fit in more than 100 GiB of memory",
 )
-def test_an_error_map_whose_row_models_do_not_fit_is_refused_before_the_kernel():
-    # (4,4), W = 8, 1e8 rows: the map itself is 6.4 GB, the propagated models (one band of
-    # 640 doubles per row) 512 GB
+def test_a_smoothed_pass_whose_row_models_do_not_fit_is_refused_before_the_kernel():
+    # (4,4), W = 8, 2·10^7 rows: the image is 1.3 GB, the row models the RTS pass keeps
+    # (one band of 640 doubles per row) 102 GB
     model = kf.ARFieldModel([0.9, 0.9], [4, 4])
+    z = np.zeros((2 * 10**7, 8))
     with pytest.raises(MemoryError, match="GiB"):
-        kf.ScalarRowFilter(model, 1.0, 8).error_variance(10**8, noise_var=2.0)
+        kf.ScalarRowFilter(model, 1.0, 8, smooth=True).filter(z, noise_var=2.0)
 
 
 @pytest.mark.parametrize("scale", [1e-150, 1e150])

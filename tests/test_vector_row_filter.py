@@ -4,7 +4,7 @@ import pickle
 
 import numpy as np
 import pytest
-from conftest import noisy
+from conftest import exact_mse, noisy
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -57,6 +57,18 @@ def test_smoother_stays_the_posterior_mean_for_slowly_decaying_rows():
     np.testing.assert_allclose(twin, want, atol=1e-3 * np.sqrt(noise_var))
     bound = kf.wiener_error_map(model, noise_var, shape)
     np.testing.assert_allclose(f.error_variance(shape[0]), bound, rtol=1e-3)
+
+
+@pytest.mark.parametrize(("order", "noise_var"), [((4, 1), 1.0), ((4, 2), 1e-4)])
+def test_smoother_attains_the_bound_where_four_rows_correlate_to_rounding(order, noise_var):
+    # n_y = 4 at ρ = 0.999: R_y[:4,:4] has a condition ~3e17. With the per-mode Riccati in the
+    # rows' own basis P_e rounded indefinite, those modes' smoother gain fell to 0 and the
+    # smoothed image lay 1.18× ((4,1)) and 1.09× ((4,2)) above the bound; in the whitened
+    # basis of the rows it is at the bound (exact MSE, 32²)
+    model, shape = kf.ARFieldModel([0.999, 0.999], order), (32, 32)
+    f = kf.VectorRowFilter(model, noise_var, shape[1], smooth=True)
+    bound = kf.wiener_bound(model, noise_var, shape)
+    assert exact_mse(f, model, noise_var, shape) == pytest.approx(bound, rel=5e-3)
 
 
 def test_error_variance_matches_monte_carlo():

@@ -87,8 +87,9 @@ class ScalarRowFilter(RowFilter):
     (2,2), (4,1), (4,4) ≤ 1.00×, at 1e10 (4,1) 1.00×; per-pixel σ_θ² log-uniform over
     100× either way at σ_x²/σ_θ² = 100: (2,1), (4,1) 1.00× (the nominal models gave 2–1e4×
     there, up to divergence). Cost: O(W n_y b²) for the inversion and O(W (m n_y)³) for
-    the fits per row, and one row model (W n_y (b + 1) doubles) per row of the image kept
-    for the passes. row_models="nominal" keeps the plan's models instead (the fast path of
+    the fits per row; the causal pass makes each row's model as it reaches the row, the
+    smoothed one keeps a row model (W n_y (b + 1) doubles) per row of the image for the RTS
+    pass. row_models="nominal" keeps the plan's models instead (the fast path of
     :func:`denoise`; unfit at high SNR: 10 % missing at σ_x²/σ_θ² = 1e4 gave (1,1) ~6×,
     (2,1) ~5e4×, (4,1) ~4× the posterior's MSE, smoothed; within 6 % at ≤ 100).
     """
@@ -165,16 +166,17 @@ class ScalarRowFilter(RowFilter):
         missing = np.isnan(arr)
         if noise_var is None and not missing.any():
             return self._filter_checked(arr)
+        self._check_models_memory(arr.shape)
         weights = self._weights(arr.shape, noise_var)
         weights[missing] = 0.0  # the kernel ignores the (NaN) value of a weight-0 pixel
-        self._check_models_memory(arr.shape)
         return self._filter_checked(arr, weights)
 
     def _check_models_memory(self, shape: tuple[int, ...]) -> None:
-        """MemoryError when the propagated row models of weighted images (one band of
-        W n_y (b + 1) doubles per row, for each frame filtered at once) would not fit; the
-        nominal ones keep nothing per row."""
-        if self._row_models == "nominal":
+        """MemoryError when the propagated row models that a smoothed pass keeps for weighted
+        images (one band of W n_y (b + 1) doubles per row, for each frame filtered at once)
+        would not fit; the causal pass makes them as it reaches the rows and the nominal ones
+        are the plan's, so neither keeps anything per row."""
+        if self._row_models == "nominal" or not self._smooth:
             return
         n_y = self._model.order[0]
         band = self._width * n_y * (n_y * (min(self.ar_order, 8) + 1))
@@ -215,7 +217,8 @@ class ScalarRowFilter(RowFilter):
         :meth:`filter`: broadcastable to (height, W), > 0, inf = missing pixel; for an image
         z with NaN pixels, ``np.where(np.isnan(z), np.inf, self.noise_var)``); the map is then
         that of the weighted systems the filter solves, one selected inversion per row (row
-        after row with the propagated row models, which it makes as :meth:`filter` does; in
+        after row with the propagated row models, which it makes as :meth:`filter` does but
+        drops row by row, so the map needs no memory beyond itself and the weights; in
         parallel with row_models="nominal"). None: the nominal noise_var everywhere.
 
         smooth=True: the smoothed covariance of this filter's model is not banded, so the map
@@ -234,7 +237,6 @@ class ScalarRowFilter(RowFilter):
             return wiener_error_map(self._model, self._noise_var, (height, self._width))
         if noise_var is None:
             return self._in_image_units(self._core.error_variance(height))
-        self._check_models_memory((height, self._width))
         weights = self._weights((height, self._width), noise_var)
         return self._in_image_units(self._core.error_variance(height, weights))
 

@@ -20,7 +20,12 @@ class VectorRowFilter(RowFilter):
     :meth:`error_variance` is the true per-pixel MSE. Computed exactly in the eigenbasis of
     the row covariance V_x (every matrix of the filter is a Kronecker product with V_x, so the
     nW-dimensional filter splits into W independent n_y-dimensional ones): O(W³) once
-    (faer eigendecomposition), then O(W²) per row (two rotations).
+    (faer eigendecomposition), then O(W²) per row (two rotations). Each mode's Riccati and
+    state run in the whitened basis of the n_y rows (L⁻¹ of their correlation R_y[:n,:n] =
+    L Lᵀ, a row read out through a row of L), where every quantity is O(1): in the rows' own
+    basis that correlation has a condition ~3e17 for n_y = 4 at ρ = 0.999 and the smoother
+    lay up to 1.27× above the bound there (README, "Numerical range"); n_y = 4 at
+    ρ = 0.9999 does not factor in float64 (ValueError).
 
     smooth=True adds the RTS pass over the rows: with the exact start the result is the
     posterior mean given the whole image, i.e. the best linear estimator, whose error is

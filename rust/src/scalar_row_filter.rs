@@ -33,7 +33,7 @@ use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
-use crate::vector_row_filter::{all_finite, check_sizes, ModeCovariance, RowDynamics, Small};
+use crate::vector_row_filter::{all_finite, check_sizes, RowDynamics, Small};
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -41,6 +41,8 @@ use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
 mod propagated_models;
+
+use propagated_models::Propagation;
 
 /// One run of the filter: the plan, the image (row-major height × W), its per-pixel
 /// 1/σ_θ² (None: nominal) and whether the RTS pass follows.
@@ -104,9 +106,10 @@ pub struct ScalarRowFilter {
     mode_var: Vec<f64>,
     ar_order: usize,
     noise_var: f64,
-    lower: Small,
-    whitening: Small,
-    transition: Small,
+    /// The rows' dynamics in the whitened basis (`RowDynamics::whitened`): its transition
+    /// T S L is the prediction's, its readout L (`lower`) reads the image rows out of the
+    /// state.
+    whitened: RowDynamics,
     row_models: RowModels,
     plan: Mutex<Option<Arc<Plan>>>,
 }
@@ -155,45 +158,20 @@ impl ScalarRowFilter {
                 "ar_order must lie in 1..=8, got {ar_order}"
             )));
         }
-        let n = y.order();
-        let mut prior = Small::identity();
-        for i in 0..n {
-            for k in 0..n {
-                prior[(i, k)] = y.correlation(i.abs_diff(k) as f64);
-            }
-        }
-        let lower = prior.cholesky().map(|c| c.l()).ok_or_else(|| {
-            FieldError::InvalidParameter("the row correlation is not positive definite".into())
-        })?;
-        // a triangular solve, not a general 4×4 inverse: R_y[:n,:n] is ill-conditioned
-        // (condition ~5e9 for n = 4, ρ = 0.95)
-        let whitening = lower
-            .solve_lower_triangular(&Small::identity())
-            .ok_or_else(|| {
-                FieldError::InvalidParameter("the row correlation is singular".into())
-            })?;
-        let mut companion = Small::zeros();
-        for (i, a) in y.ar_coefficients().iter().enumerate() {
-            companion[(0, i)] = *a;
-        }
-        for i in 1..n {
-            companion[(i, i - 1)] = 1.0;
-        }
-        let transition = whitening * companion * lower;
+        let dynamics = RowDynamics::new(y);
+        let whitened = dynamics.whitened()?;
         let chosen = match modes {
             ModeSet::Exact => RowModes::exact(x, width)?,
             // provisional: the Fourier modes carry the width until `ends_modes` has chosen
             ModeSet::Ends | ModeSet::Toeplitz => RowModes::toeplitz(x, width),
         };
         let mut filter = Self {
-            dynamics: RowDynamics::new(y),
+            whitened,
+            dynamics,
             mode_var: Vec::new(),
             modes: chosen,
             ar_order,
             noise_var,
-            lower,
-            whitening,
-            transition,
             row_models: RowModels::Propagated,
             plan: Mutex::new(None),
         };
@@ -244,8 +222,9 @@ impl ScalarRowFilter {
             variances(finer.values(), sigma),
         );
         let rows = self
-            .prediction_errors(&var)
-            .zip(self.prediction_errors(&finer_var));
+            .dynamics
+            .prediction_errors(self.noise_var, &var)
+            .zip(self.dynamics.prediction_errors(self.noise_var, &finer_var));
         let mut previous: Option<Vec<Small>> = None;
         let mut previous_change: Option<f64> = None;
         // the largest floor estimate so far: the rounding accumulates down the rows, and one
@@ -282,26 +261,6 @@ impl ScalarRowFilter {
         true
     }
 
-    /// (t, P_e,t per mode) of the optimal filter's modal Riccati for the mode variances `var`
-    /// (SPEC §2.2 [P 3.29, 3.30]), rows t = 1, 2, ….
-    fn prediction_errors<'a>(
-        &'a self,
-        var: &'a [f64],
-    ) -> impl Iterator<Item = (usize, Vec<Small>)> + 'a {
-        let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
-        let mut current: Vec<ModeCovariance> = Vec::new();
-        (1..).map(move |t| {
-            current = (0..var.len())
-                .map(|j| {
-                    let prev = current.get(j).map_or(Small::zeros(), |c| c.filtered);
-                    self.dynamics.riccati_step(t, &prev, ratios[j])
-                })
-                .collect();
-            let modal = current.iter().zip(var).map(|(c, v)| c.predicted * *v);
-            (t, modal.collect())
-        })
-    }
-
     /// W' of the `Ends` modes' exact ends (None: the band has no splice).
     pub fn ends_span(&self) -> Option<usize> {
         self.modes.span()
@@ -310,6 +269,12 @@ impl ScalarRowFilter {
     /// Row width W.
     pub fn width(&self) -> usize {
         self.modes.width()
+    }
+
+    /// L (R_y[:n,:n] = L Lᵀ): row i reads the image row that state component i holds out of
+    /// the whitened state.
+    fn lower(&self) -> &Small {
+        &self.whitened.readout
     }
 
     /// Half-bandwidth b = n(m+1) − 1 of the row systems.
@@ -567,7 +532,7 @@ impl ScalarRowFilter {
     /// row of the state in the whitened basis).
     fn add_observation(&self, a: &mut SymmetricBand, index: usize, weight: impl Fn(usize) -> f64) {
         let n = self.dynamics.order;
-        let h = self.lower.row(index);
+        let h = self.lower().row(index);
         for ell in 0..self.width() {
             let r_ell = weight(ell);
             for r in 0..n {
@@ -576,51 +541,6 @@ impl ScalarRowFilter {
                 }
             }
         }
-    }
-
-    /// (t, T P_e,t Tᵀ per mode): the modal Riccati of `prediction_errors` run in the whitened
-    /// row basis v' = T v, where the stationary prior is I, the transition S' = T S L, the
-    /// innovation β̃² (T e₀)(T e₀)ᵀ and row t observes h_t = row `observed(t)` of L. Every
-    /// quantity is O(1) there and P_e' stays positive semi-definite by construction;
-    /// whitening the state-basis P_e afterwards (T P Tᵀ, T of condition ~5e8 for n_y = 4 at
-    /// ρ = 0.999) turned its rounding into an indefinite band.
-    fn whitened_errors<'a>(
-        &'a self,
-        var: &'a [f64],
-    ) -> impl Iterator<Item = (usize, Vec<Small>)> + 'a {
-        let n = self.dynamics.order;
-        let ratios: Vec<f64> = var.iter().map(|v| self.noise_var / v).collect();
-        let mut prior = Small::zeros();
-        prior.view_mut((0, 0), (n, n)).fill_with_identity();
-        let t0 = self.whitening.column(0).into_owned();
-        let innovation = (t0 * t0.transpose()) * self.dynamics.innovation;
-        let mut filtered: Vec<Small> = Vec::new();
-        (1..).map(move |t| {
-            let h = self.lower.row(self.dynamics.observed(t)).transpose();
-            let predicted: Vec<Small> = (0..var.len())
-                .map(|j| {
-                    if t == 1 {
-                        prior
-                    } else if t <= n {
-                        filtered[j]
-                    } else {
-                        let p = self.transition * filtered[j] * self.transition.transpose()
-                            + innovation;
-                        (p + p.transpose()) * 0.5
-                    }
-                })
-                .collect();
-            filtered = predicted
-                .iter()
-                .zip(&ratios)
-                .map(|(p, ratio)| {
-                    let c = p * h;
-                    p - (c * c.transpose()) / (h.dot(&c) + ratio)
-                })
-                .collect();
-            let modal = predicted.iter().zip(var).map(|(p, v)| p * *v);
-            (t, modal.collect())
-        })
     }
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
@@ -638,7 +558,11 @@ impl ScalarRowFilter {
         let mut fitted: Option<Vec<Mat<f64>>> = None;
         let mut previous_band: Option<Vec<Mat<f64>>> = None;
         let mut previous_change: Option<f64> = None;
-        for (t, modal) in self.whitened_errors(&self.mode_var).take(height) {
+        for (t, modal) in self
+            .whitened
+            .prediction_errors(self.noise_var, &self.mode_var)
+            .take(height)
+        {
             if t <= n {
                 if t == 1 {
                     let band = self.band(&modal);
@@ -724,13 +648,11 @@ impl ScalarRowFilter {
             return Ok(out);
         };
         if self.row_models == RowModels::Propagated {
-            let mut rows = out.chunks_exact_mut(w);
-            let mut read = |t: usize, z: &SymmetricBand| {
-                if let Some(row) = rows.next() {
-                    self.read_variances(z, t, row);
-                }
-            };
-            self.propagated_precisions(&plan, r, height, Some(&mut read))?;
+            let mut propagation = Propagation::new(self, &plan, r)?;
+            for row in out.chunks_exact_mut(w) {
+                let mut read = |t: usize, z: &SymmetricBand| self.read_variances(z, t, row);
+                propagation.next_row(Some(&mut read))?;
+            }
             return Ok(out);
         }
         let n = self.dynamics.order;
@@ -859,7 +781,7 @@ impl ScalarRowFilter {
     /// h = row `index` of L: the readout of the image row held in that state row.
     #[inline(always)]
     fn readout_row(&self, index: usize) -> [f64; 4] {
-        let h = self.lower.row(index);
+        let h = self.lower().row(index);
         std::array::from_fn(|a| if a < self.dynamics.order { h[a] } else { 0.0 })
     }
 
@@ -875,7 +797,7 @@ impl ScalarRowFilter {
         gain_in: &mut [f64],
         weights: Option<&[f64]>,
     ) -> bool {
-        let s = &self.transition;
+        let s = &self.whitened.transition;
         for_order!(self.dynamics.order, |N, K| match weights {
             None => columns::predict::<N, K, _>(s, state, row, gain_in, self.nominal()),
             Some(r) => columns::predict::<N, K, _>(s, state, row, gain_in, PerPixel(r)),
@@ -916,7 +838,7 @@ impl ScalarRowFilter {
     /// `weights`: row t's (None: nominal).
     #[inline(always)]
     fn smooth_row(&self, weights: Option<&[f64]>, row: RtsRow) {
-        let (s, h0) = (&self.transition, self.lower[(0, 0)]);
+        let (s, h0) = (&self.whitened.transition, self.lower()[(0, 0)]);
         for_order!(self.dynamics.order, |N, K| match weights {
             None => columns::smooth::<N, K>(s, h0, self.nominal(), row),
             Some(r) => columns::smooth::<N, K>(s, h0, PerPixel(r), row),
@@ -924,12 +846,12 @@ impl ScalarRowFilter {
     }
 
     /// Factors the weighted systems A_t of rows t ∈ `rows` (1-based, at most LANES; spare
-    /// lanes repeat the last row) into `batch`, one lane per row: Λ_t plus Σ_ℓ w_sℓ h_s h_sᵀ
-    /// over the rows s observed in the state at t (start rows t ≤ n: s = 1..t, observed
-    /// through state row n − s; later rows: s = t, through state row 0).
+    /// lanes repeat the last row) into `batch`, one lane per row: Λ_t (`precisions`, by lane)
+    /// plus Σ_ℓ w_sℓ h_s h_sᵀ over the rows s observed in the state at t (start rows t ≤ n:
+    /// s = 1..t, observed through state row n − s; later rows: s = t, through state row 0).
     fn weighted_factors(
         &self,
-        precisions: &[&SymmetricBand],
+        precisions: [&SymmetricBand; LANES],
         rows: Range<usize>,
         z: &[f64],
         weights: &[f64],
@@ -944,7 +866,7 @@ impl ScalarRowFilter {
             for s in observed {
                 let at = (s - 1) * w..s * w;
                 Self::check_weighted_row(&z[at.clone()], &weights[at.clone()])?;
-                let h = self.lower.row(n.saturating_sub(s));
+                let h = self.lower().row(n.saturating_sub(s));
                 for (block, &r) in blocks.chunks_exact_mut(n * n).zip(&weights[at]) {
                     for a in 0..n {
                         for c in 0..n {
@@ -954,11 +876,7 @@ impl ScalarRowFilter {
                 }
             }
         }
-        batch.factor(
-            std::array::from_fn(|j| precisions[lane_row(j) - 1]),
-            &blocks,
-            n,
-        )
+        batch.factor(precisions, &blocks, n)
     }
 
     /// The forward pass and, when `smooth`, the RTS pass of one image.
@@ -1013,22 +931,28 @@ impl ScalarRowFilter {
         let mut gain_in = vec![0.0; size];
         // the state after the start rows (ŷ_n), from which the RTS pass reads them out
         let mut start = if smooth { vec![0.0; size] } else { Vec::new() };
-        // A_t x = rhs: the plan's factor, or this row's weighted system
-        let propagated = match weights {
-            Some(all) if self.row_models == RowModels::Propagated => {
-                self.propagated_precisions(plan, all, height, None)?
+        // A_t x = rhs: the plan's factor, or this row's weighted system, whose Λ_t is the
+        // plan's or propagated: made as the forward pass reaches it when causal, every row's
+        // kept for the RTS pass when smoothed
+        let kept = match weights {
+            Some(all) if smooth && self.row_models == RowModels::Propagated => {
+                self.propagated_precisions(plan, all, height)?
             }
             _ => Vec::new(),
         };
-        let models: Vec<&SymmetricBand> = match (weights, self.row_models) {
-            (None, _) => Vec::new(),
-            (Some(_), RowModels::Propagated) => (1..=height)
-                .zip(&propagated)
-                .map(|(t, p)| p.as_ref().unwrap_or_else(|| plan.precision(t)))
-                .collect(),
-            (Some(_), RowModels::Nominal) => (1..=height).map(|t| plan.precision(t)).collect(),
+        let mut weighted = match weights {
+            None => None,
+            Some(all) => {
+                let models = match self.row_models {
+                    RowModels::Nominal => RowModelSource::Plan,
+                    RowModels::Propagated if smooth => RowModelSource::Kept(&kept),
+                    RowModels::Propagated => {
+                        RowModelSource::Made(Propagation::new(self, plan, all)?, Vec::new())
+                    }
+                };
+                Some(WeightedRows::new(self, plan, models, z, all))
+            }
         };
-        let mut weighted = weights.map(|all| WeightedRows::new(self, &models, z, all));
         // `innovation`: x is zero outside each column's component 0 (a prediction row)
         let mut solve = |t: usize, x: &mut [f64], innovation: bool| match weighted.as_mut() {
             Some(rows) => rows.solve(t, x),
@@ -1059,7 +983,7 @@ impl ScalarRowFilter {
             // 1/σ_θ² per pixel; a pixel of weight 0 is ignored (its value may be NaN)
             let weight = |ell: usize| row_weights.map_or(self.nominal().0, |r| r[ell]);
             if t <= n {
-                let h = self.lower.row(n - t);
+                let h = self.lower().row(n - t);
                 for (ell, zl) in row.iter().enumerate() {
                     let r_ell = weight(ell);
                     if r_ell > 0.0 {
@@ -1124,12 +1048,23 @@ impl ScalarRowFilter {
     }
 }
 
+/// Where the weighted rows' Λ_t come from (`RowModels`); a row without a propagated model
+/// takes the plan's.
+enum RowModelSource<'a> {
+    /// The plan's (`RowModels::Nominal`).
+    Plan,
+    /// Propagated, every row's, kept for the RTS pass.
+    Kept(&'a [Option<SymmetricBand>]),
+    /// Propagated as the forward pass reaches the rows: the current batch's (causal pass).
+    Made(Propagation<'a>, Vec<Option<SymmetricBand>>),
+}
+
 /// The factors of the weighted rows' systems, made LANES rows at a time as the passes reach
 /// them (the RTS pass refactors rather than keeping a factor per row).
 struct WeightedRows<'a> {
     filter: &'a ScalarRowFilter,
-    /// Λ_t of every row (`RowModels`).
-    precisions: &'a [&'a SymmetricBand],
+    plan: &'a Plan,
+    models: RowModelSource<'a>,
     z: &'a [f64],
     weights: &'a [f64],
     height: usize,
@@ -1141,14 +1076,16 @@ struct WeightedRows<'a> {
 impl<'a> WeightedRows<'a> {
     fn new(
         filter: &'a ScalarRowFilter,
-        precisions: &'a [&'a SymmetricBand],
+        plan: &'a Plan,
+        models: RowModelSource<'a>,
         z: &'a [f64],
         weights: &'a [f64],
     ) -> Self {
         let size = filter.width() * filter.dynamics.order;
         Self {
             filter,
-            precisions,
+            plan,
+            models,
             z,
             weights,
             height: weights.len() / filter.width(),
@@ -1163,13 +1100,39 @@ impl<'a> WeightedRows<'a> {
         if first != self.first {
             self.first = 0;
             let rows = first..(first + LANES).min(self.height + 1);
-            self.filter.weighted_factors(
-                self.precisions,
+            if let RowModelSource::Made(propagation, batch) = &mut self.models {
+                // the causal pass reaches each batch once, in order
+                *batch = rows
+                    .clone()
+                    .map(|_| propagation.next_row(None))
+                    .collect::<Result<_>>()?;
+            }
+            let (plan, models) = (self.plan, &self.models);
+            let lane_row = |j: usize| (rows.start + j).min(rows.end - 1);
+            let precisions = std::array::from_fn(|j| {
+                let t = lane_row(j);
+                let propagated = match models {
+                    RowModelSource::Plan => None,
+                    RowModelSource::Kept(all) => all[t - 1].as_ref(),
+                    RowModelSource::Made(_, batch) => batch[t - rows.start].as_ref(),
+                };
+                propagated.unwrap_or_else(|| plan.precision(t))
+            });
+            let factored = self.filter.weighted_factors(
+                precisions,
                 rows,
                 self.z,
                 self.weights,
                 &mut self.batch,
-            )?;
+            );
+            if let (Err(FieldError::InvalidParameter(e)), RowModelSource::Plan) =
+                (&factored, models)
+            {
+                return Err(FieldError::InvalidParameter(format!(
+                    "{e}; row_models=\"propagated\" fits the row models to these weights"
+                )));
+            }
+            factored?;
             self.first = first;
         }
         self.batch.solve_in_place(t - first, x);
@@ -1266,7 +1229,11 @@ mod tests {
 
     /// The band of P_e of prediction row `t` (1-based), whitened.
     fn band_of_row(filter: &ScalarRowFilter, t: usize) -> Vec<Mat<f64>> {
-        let (_, modal) = filter.whitened_errors(&filter.mode_var).nth(t - 1).unwrap();
+        let (_, modal) = filter
+            .whitened
+            .prediction_errors(filter.noise_var, &filter.mode_var)
+            .nth(t - 1)
+            .unwrap();
         filter.band(&modal)
     }
 
@@ -1275,11 +1242,18 @@ mod tests {
         let model = FieldModel::new(&[0.9, 0.8], &[3, 2], 1.0).unwrap();
         let filter = ScalarRowFilter::new(&model, 0.5, 12, None, ModeSet::Exact).unwrap();
         let rows = filter
-            .whitened_errors(&filter.mode_var)
-            .zip(filter.prediction_errors(&filter.mode_var));
+            .whitened
+            .prediction_errors(filter.noise_var, &filter.mode_var)
+            .zip(
+                filter
+                    .dynamics
+                    .prediction_errors(filter.noise_var, &filter.mode_var),
+            );
+        let whitening = filter.lower().solve_lower_triangular(&Small::identity());
+        let whitening = whitening.unwrap();
         for ((t, whitened), (_, modal)) in rows.take(9) {
             for (got, p) in whitened.iter().zip(&modal) {
-                let want = filter.whitening * p * filter.whitening.transpose();
+                let want = whitening * p * whitening.transpose();
                 let gap = (got - want).amax();
                 assert!(gap < 1e-10 * want.amax(), "row {t}: {gap}");
             }
@@ -1312,7 +1286,11 @@ mod tests {
         let model = FieldModel::new(&[0.999, 0.999], &[4, 3], 1.0).unwrap();
         let filter = ScalarRowFilter::new(&model, 1e-4, 16, None, ModeSet::Exact).unwrap();
         let mut refitted = 0;
-        for (t, modal) in filter.whitened_errors(&filter.mode_var).take(40) {
+        for (t, modal) in filter
+            .whitened
+            .prediction_errors(filter.noise_var, &filter.mode_var)
+            .take(40)
+        {
             let band = filter.band(&modal);
             let direct = filter.precision(&band, None);
             if direct.is_ok_and(|d| filter.system(&d, &[0]).is_ok()) {

@@ -259,11 +259,11 @@ def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact", sp
 
 def whitened_prediction_errors(lam, rho_y, n, noise_var, height) -> list[np.ndarray]:
     """P_e,t' = T P_e,t Tᵀ per mode (W, n, n) for rows t = 1..height (twin of
-    ``ScalarRowFilter::whitened_errors``): the Riccati of ``modal_riccati`` run in the whitened
-    row basis of ``row_basis`` (prior I, transition T A L, innovation β̃² (T e₀)(T e₀)ᵀ, row t
-    observing row ``row_schedule``'s index of L), where every quantity is O(1) and P_e' stays
-    positive semi-definite; whitening P_e afterwards turned its rounding into an indefinite
-    band for n = 4 at ρ = 0.999."""
+    ``RowDynamics::whitened(..).prediction_errors``): the Riccati of ``modal_riccati`` run in
+    the whitened row basis of ``row_basis`` (prior I, transition T A L, innovation
+    β̃² (T e₀)(T e₀)ᵀ, row t observing row ``row_schedule``'s index of L), where every quantity
+    is O(1) and P_e' stays positive semi-definite; whitening P_e afterwards turned its
+    rounding into an indefinite band for n = 4 at ρ = 0.999."""
     tmat, lower = row_basis(rho_y, n)
     a = tmat @ companion(rho_y, n) @ lower
     q = beta_tilde_sq(rho_y, n) * np.outer(tmat[:, 0], tmat[:, 0])

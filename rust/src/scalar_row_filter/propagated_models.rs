@@ -31,8 +31,95 @@ pub(super) type Lags = Vec<Vec<f64>>;
 /// The largest joint order of a column and its past: (m + 1) n_y for m ≤ 8, n_y ≤ 4.
 const MAX_JOINT: usize = 36;
 
-/// Sees (t, band of A_t⁻¹) for every row t of `propagated_precisions`.
+/// Sees (t, band of A_t⁻¹) of the row that [`Propagation::next_row`] makes.
 pub(super) type InverseVisitor<'a> = &'a mut dyn FnMut(usize, &SymmetricBand);
+
+/// The row models of an image with per-pixel 1/σ_θ² `weights` (0 = missing), made row after
+/// row (each needs the previous row's A⁻¹, nothing below it): None where it is the plan's,
+/// i.e. every row down to the first whose weights depart from the nominal 1/σ_θ² (beyond
+/// 1e-12 relative: a constant map is the plain filter), and the start rows; after a
+/// departure, every row's model is fitted to S A_{t−1}⁻¹ Sᵀ + Q (module doc). Only the
+/// previous row's band of A⁻¹ is kept, so the causal pass and the error map hold no model
+/// beyond the rows they are at.
+pub(super) struct Propagation<'a> {
+    filter: &'a ScalarRowFilter,
+    plan: &'a super::Plan,
+    weights: &'a [f64],
+    innovation: &'a Lags,
+    /// The band of S A_{t−1}⁻¹ Sᵀ + Q (reused storage).
+    predicted: Lags,
+    /// The band of the observations Hᵀ R⁻¹ H of the row being made.
+    observed: SymmetricBand,
+    /// The band of A_{t−1}⁻¹ once the weights have departed from the nominal ones.
+    inverse: Option<SymmetricBand>,
+    departed: bool,
+    /// The rows made so far.
+    rows: usize,
+}
+
+impl<'a> Propagation<'a> {
+    pub(super) fn new(
+        filter: &'a ScalarRowFilter,
+        plan: &'a super::Plan,
+        weights: &'a [f64],
+    ) -> Result<Self> {
+        ScalarRowFilter::check_weights(weights)?;
+        let innovation = plan.innovation.get_or_init(|| filter.innovation_band());
+        let size = filter.width() * filter.dynamics.order;
+        Ok(Self {
+            filter,
+            plan,
+            weights,
+            innovation,
+            predicted: innovation.clone(),
+            observed: SymmetricBand::zeros(size, filter.bandwidth()),
+            inverse: None,
+            departed: false,
+            rows: 0,
+        })
+    }
+
+    /// Λ_t of the next row t (None: the plan's); `each` sees its band of A_t⁻¹.
+    pub(super) fn next_row(
+        &mut self,
+        mut each: Option<InverseVisitor<'_>>,
+    ) -> Result<Option<SymmetricBand>> {
+        let filter = self.filter;
+        let (w, n) = (filter.width(), filter.dynamics.order);
+        self.rows += 1;
+        let t = self.rows;
+        let row_weights = &self.weights[(t - 1) * w..t * w];
+        if t > n {
+            self.observed = SymmetricBand::zeros(w * n, filter.bandwidth());
+        }
+        filter.add_observation(&mut self.observed, n.saturating_sub(t), |ell| {
+            row_weights[ell]
+        });
+        let nominal = 1.0 / filter.noise_var;
+        self.departed |= row_weights
+            .iter()
+            .any(|&r| (r - nominal).abs() > 1e-12 * nominal);
+        let plan_model = self.plan.precision(t);
+        let (precision, z) = match (&self.inverse, t > n) {
+            (Some(previous), true) => {
+                filter.predicted_band(previous, self.innovation, &mut self.predicted);
+                let (p, z) =
+                    filter.propagated_model(plan_model, &self.predicted, &self.observed)?;
+                (Some(p), Some(z))
+            }
+            _ if self.departed || each.is_some() => {
+                let z = sum(plan_model, &self.observed).inverse_band()?;
+                (None, Some(z))
+            }
+            _ => (None, None),
+        };
+        if let (Some(f), Some(z)) = (each.as_mut(), &z) {
+            f(t, z);
+        }
+        self.inverse = if self.departed { z } else { None };
+        Ok(precision)
+    }
+}
 
 impl ScalarRowFilter {
     /// The band of Q = σ² R_x ⊗ (I − S Sᵀ), the covariance the prediction of one row adds in
@@ -41,7 +128,7 @@ impl ScalarRowFilter {
         let n = self.dynamics.order;
         let mut unit = Small::zeros();
         unit.view_mut((0, 0), (n, n)).fill_with_identity();
-        let added = unit - self.transition * self.transition.transpose();
+        let added = unit - self.whitened.transition * self.whitened.transition.transpose();
         let modal: Vec<Small> = self.mode_var.iter().map(|v| added * *v).collect();
         self.band(&modal)
             .iter()
@@ -55,55 +142,16 @@ impl ScalarRowFilter {
             .collect()
     }
 
-    /// Λ_t for rows t = 1..=height of an image with per-pixel 1/σ_θ² `weights` (0 = missing),
-    /// None where it is the plan's: every row down to the first whose weights depart from
-    /// the nominal 1/σ_θ² (beyond 1e-12 relative: a constant map is the plain filter), and
-    /// the start rows; after a departure, every row's model is fitted to S A_{t−1}⁻¹ Sᵀ + Q
-    /// (module doc). With `each`, it sees every row's band of A_t⁻¹ as it is made.
+    /// Λ_t for rows t = 1..=height of an image with per-pixel 1/σ_θ² `weights`, None where
+    /// it is the plan's ([`Propagation`]), kept for the RTS pass.
     pub(super) fn propagated_precisions(
         &self,
         plan: &super::Plan,
         weights: &[f64],
         height: usize,
-        mut each: Option<InverseVisitor<'_>>,
     ) -> Result<Vec<Option<SymmetricBand>>> {
-        let (w, n) = (self.width(), self.dynamics.order);
-        Self::check_weights(weights)?;
-        let nominal = 1.0 / self.noise_var;
-        let departs = |row: &[f64]| row.iter().any(|&r| (r - nominal).abs() > 1e-12 * nominal);
-        let innovation = plan.innovation.get_or_init(|| self.innovation_band());
-        let mut predicted = innovation.clone();
-        let mut out = Vec::with_capacity(height);
-        let mut observed = SymmetricBand::zeros(w * n, self.bandwidth());
-        // the band of A_{t−1}⁻¹ once the weights have departed from the nominal ones
-        let mut inverse: Option<SymmetricBand> = None;
-        let mut departed = false;
-        for t in 1..=height {
-            let row_weights = &weights[(t - 1) * w..t * w];
-            if t > n {
-                observed = SymmetricBand::zeros(w * n, self.bandwidth());
-            }
-            self.add_observation(&mut observed, n.saturating_sub(t), |ell| row_weights[ell]);
-            departed |= departs(row_weights);
-            let (precision, z) = match (&inverse, t > n) {
-                (Some(previous), true) => {
-                    self.predicted_band(previous, innovation, &mut predicted);
-                    let (p, z) = self.propagated_model(plan.precision(t), &predicted, &observed)?;
-                    (Some(p), Some(z))
-                }
-                _ if departed || each.is_some() => {
-                    let z = sum(plan.precision(t), &observed).inverse_band()?;
-                    (None, Some(z))
-                }
-                _ => (None, None),
-            };
-            if let (Some(f), Some(z)) = (each.as_mut(), &z) {
-                f(t, z);
-            }
-            inverse = if departed { z } else { None };
-            out.push(precision);
-        }
-        Ok(out)
+        let mut propagation = Propagation::new(self, plan, weights)?;
+        (0..height).map(|_| propagation.next_row(None)).collect()
     }
 
     /// (Λ_t, band of A_t⁻¹) for a row after the start: Λ_t fitted to the `predicted` band
@@ -132,7 +180,7 @@ impl ScalarRowFilter {
     fn predicted_band(&self, z: &SymmetricBand, innovation: &Lags, out: &mut Lags) {
         let n = self.dynamics.order;
         let s: [[f64; 4]; 4] =
-            std::array::from_fn(|a| std::array::from_fn(|b| self.transition[(a, b)]));
+            std::array::from_fn(|a| std::array::from_fn(|b| self.whitened.transition[(a, b)]));
         for (d, (lag, q)) in out.iter_mut().zip(innovation).enumerate() {
             lag.copy_from_slice(q);
             for (ell, block) in lag.chunks_exact_mut(n * n).enumerate() {
@@ -441,14 +489,15 @@ mod tests {
             .map(|k| 2.0 * 30f64.powf(((k * 7919) % 97) as f64 / 96.0 - 0.5))
             .collect();
         let plan = filter.plan(height).unwrap();
-        let mut inverses = Vec::new();
-        let mut keep = |_: usize, z: &SymmetricBand| inverses.push(z.clone());
-        filter
-            .propagated_precisions(&plan, &weights, height, Some(&mut keep))
-            .unwrap();
+        let mut propagation = Propagation::new(&filter, &plan, &weights).unwrap();
+        let mut previous = None;
+        for _ in 0..height - 1 {
+            let mut store = |_: usize, z: &SymmetricBand| previous = Some(z.clone());
+            propagation.next_row(Some(&mut store)).unwrap();
+        }
         let innovation = filter.innovation_band();
         let mut lags = innovation.clone();
-        filter.predicted_band(&inverses[height - 2], &innovation, &mut lags);
+        filter.predicted_band(&previous.unwrap(), &innovation, &mut lags);
         (filter, lags)
     }
 
@@ -508,7 +557,7 @@ mod tests {
         let dense = nalgebra::DMatrix::from_fn(size, size, |i, k| z.get(i, k));
         let s = nalgebra::DMatrix::from_fn(size, size, |i, k| {
             if i / n == k / n {
-                filter.transition[(i % n, k % n)]
+                filter.whitened.transition[(i % n, k % n)]
             } else {
                 0.0
             }
