@@ -849,11 +849,12 @@ impl ScalarRowFilter {
     /// lanes repeat the last row) into `batch`, one lane per row: Λ_t (`precisions`, by lane)
     /// plus Σ_ℓ w_sℓ h_s h_sᵀ over the rows s observed in the state at t (start rows t ≤ n:
     /// s = 1..t, observed through state row n − s; later rows: s = t, through state row 0).
+    /// The rows are checked (`check_weighted_row`) before: the only error is a system that
+    /// does not factor.
     fn weighted_factors(
         &self,
         precisions: [&SymmetricBand; LANES],
         rows: Range<usize>,
-        z: &[f64],
         weights: &[f64],
         batch: &mut BandLdlBatch,
     ) -> Result<()> {
@@ -865,7 +866,6 @@ impl ScalarRowFilter {
             let observed = if t > n { t..=t } else { 1..=t };
             for s in observed {
                 let at = (s - 1) * w..s * w;
-                Self::check_weighted_row(&z[at.clone()], &weights[at.clone()])?;
                 let h = self.lower().row(n.saturating_sub(s));
                 for (block, &r) in blocks.chunks_exact_mut(n * n).zip(&weights[at]) {
                     for a in 0..n {
@@ -1071,6 +1071,9 @@ struct WeightedRows<'a> {
     /// First row (1-based) of the rows in `batch`; 0: none.
     first: usize,
     batch: BandLdlBatch,
+    /// The batch's rows factored one by one (Cholesky) where its LDLᵀ lanes failed with
+    /// propagated models; empty otherwise.
+    fallback: Vec<BandCholesky>,
 }
 
 impl<'a> WeightedRows<'a> {
@@ -1091,6 +1094,7 @@ impl<'a> WeightedRows<'a> {
             height: weights.len() / filter.width(),
             first: 0,
             batch: BandLdlBatch::new(size, filter.bandwidth()),
+            fallback: Vec::new(),
         }
     }
 
@@ -1100,6 +1104,12 @@ impl<'a> WeightedRows<'a> {
         if first != self.first {
             self.first = 0;
             let rows = first..(first + LANES).min(self.height + 1);
+            let w = self.filter.width();
+            for s in rows.clone() {
+                let at = (s - 1) * w..s * w;
+                ScalarRowFilter::check_weighted_row(&self.z[at.clone()], &self.weights[at])?;
+            }
+            let rows_len = rows.len();
             if let RowModelSource::Made(propagation, batch) = &mut self.models {
                 // the causal pass reaches each batch once, in order
                 *batch = rows
@@ -1118,24 +1128,35 @@ impl<'a> WeightedRows<'a> {
                 };
                 propagated.unwrap_or_else(|| plan.precision(t))
             });
-            let factored = self.filter.weighted_factors(
-                precisions,
-                rows,
-                self.z,
-                self.weights,
-                &mut self.batch,
-            );
-            if let (Err(FieldError::InvalidParameter(e)), RowModelSource::Plan) =
-                (&factored, models)
-            {
-                return Err(FieldError::InvalidParameter(format!(
-                    "{e}; row_models=\"propagated\" fits the row models to these weights"
-                )));
+            let factored =
+                self.filter
+                    .weighted_factors(precisions, rows, self.weights, &mut self.batch);
+            self.fallback.clear();
+            match (factored, models) {
+                (Err(e), RowModelSource::Plan) => {
+                    return Err(FieldError::InvalidParameter(format!(
+                        "{e}; row_models=\"propagated\" fits the row models to these weights"
+                    )));
+                }
+                // the propagation factored each of these systems (Cholesky) to invert it
+                (Err(_), _) => {
+                    self.fallback = (0..rows_len)
+                        .map(|j| {
+                            let t = first + j;
+                            let system =
+                                self.filter.weighted_system(precisions[j], t, self.weights);
+                            system.cholesky()
+                        })
+                        .collect::<Result<_>>()?;
+                }
+                (factored, _) => factored?,
             }
-            factored?;
             self.first = first;
         }
-        self.batch.solve_in_place(t - first, x);
+        match self.fallback.get(t - first) {
+            Some(factor) => factor.solve_in_place(x),
+            None => self.batch.solve_in_place(t - first, x),
+        }
         Ok(())
     }
 }

@@ -142,6 +142,27 @@ impl ScalarRowFilter {
             .collect()
     }
 
+    /// A_t = `precision` + Hᵀ R⁻¹ H of row t (1-based) of an image with per-pixel 1/σ_θ²
+    /// `weights`, summed as [`Propagation`] sums it (the observations of the rows the state
+    /// holds at t, start rows included, onto a zero band, then the model), so that it
+    /// factors wherever the propagation's did: the passes' Cholesky fallback for a batch of
+    /// rows whose LDLᵀ lanes fail at the rounding of a condition ~1e17.
+    pub(super) fn weighted_system(
+        &self,
+        precision: &SymmetricBand,
+        t: usize,
+        weights: &[f64],
+    ) -> SymmetricBand {
+        let (w, n) = (self.width(), self.dynamics.order);
+        let mut observed = SymmetricBand::zeros(w * n, self.bandwidth());
+        let rows = if t > n { t..=t } else { 1..=t };
+        for s in rows {
+            let row_weights = &weights[(s - 1) * w..s * w];
+            self.add_observation(&mut observed, n.saturating_sub(s), |ell| row_weights[ell]);
+        }
+        sum(precision, &observed)
+    }
+
     /// Λ_t for rows t = 1..=height of an image with per-pixel 1/σ_θ² `weights`, None where
     /// it is the plan's ([`Propagation`]), kept for the RTS pass.
     pub(super) fn propagated_precisions(
