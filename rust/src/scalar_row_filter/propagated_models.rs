@@ -48,8 +48,6 @@ pub(super) struct Propagation<'a> {
     innovation: &'a Lags,
     /// The band of S A_{t−1}⁻¹ Sᵀ + Q (reused storage).
     predicted: Lags,
-    /// The band of the observations Hᵀ R⁻¹ H of the row being made.
-    observed: SymmetricBand,
     /// The band of A_{t−1}⁻¹ once the weights have departed from the nominal ones.
     inverse: Option<SymmetricBand>,
     departed: bool,
@@ -65,14 +63,12 @@ impl<'a> Propagation<'a> {
     ) -> Result<Self> {
         ScalarRowFilter::check_weights(weights)?;
         let innovation = plan.innovation.get_or_init(|| filter.innovation_band());
-        let size = filter.width() * filter.dynamics.order;
         Ok(Self {
             filter,
             plan,
             weights,
             innovation,
             predicted: innovation.clone(),
-            observed: SymmetricBand::zeros(size, filter.bandwidth()),
             inverse: None,
             departed: false,
             rows: 0,
@@ -89,12 +85,7 @@ impl<'a> Propagation<'a> {
         self.rows += 1;
         let t = self.rows;
         let row_weights = &self.weights[(t - 1) * w..t * w];
-        if t > n {
-            self.observed = SymmetricBand::zeros(w * n, filter.bandwidth());
-        }
-        filter.add_observation(&mut self.observed, n.saturating_sub(t), |ell| {
-            row_weights[ell]
-        });
+        let observed = filter.observed_band(t, self.weights);
         let nominal = 1.0 / filter.noise_var;
         self.departed |= row_weights
             .iter()
@@ -103,12 +94,11 @@ impl<'a> Propagation<'a> {
         let (precision, z) = match (&self.inverse, t > n) {
             (Some(previous), true) => {
                 filter.predicted_band(previous, self.innovation, &mut self.predicted);
-                let (p, z) =
-                    filter.propagated_model(plan_model, &self.predicted, &self.observed)?;
+                let (p, z) = filter.propagated_model(plan_model, &self.predicted, &observed)?;
                 (Some(p), Some(z))
             }
             _ if self.departed || each.is_some() => {
-                let z = sum(plan_model, &self.observed).inverse_band()?;
+                let z = sum(plan_model, &observed).inverse_band()?;
                 (None, Some(z))
             }
             _ => (None, None),
@@ -142,9 +132,20 @@ impl ScalarRowFilter {
             .collect()
     }
 
-    /// A_t = `precision` + Hᵀ R⁻¹ H of row t (1-based) of an image with per-pixel 1/σ_θ²
-    /// `weights`, summed as [`Propagation`] sums it (the observations of the rows the state
-    /// holds at t, start rows included, onto a zero band, then the model), so that it
+    /// Hᵀ R⁻¹ H of row t (1-based) of an image with per-pixel 1/σ_θ² `weights`: the
+    /// observations of the rows the state holds at t (start rows: 1..=t) onto a zero band.
+    fn observed_band(&self, t: usize, weights: &[f64]) -> SymmetricBand {
+        let (w, n) = (self.width(), self.dynamics.order);
+        let mut observed = SymmetricBand::zeros(w * n, self.bandwidth());
+        let rows = if t > n { t..=t } else { 1..=t };
+        for s in rows {
+            let row_weights = &weights[(s - 1) * w..s * w];
+            self.add_observation(&mut observed, n.saturating_sub(s), |ell| row_weights[ell]);
+        }
+        observed
+    }
+
+    /// A_t = `precision` + Hᵀ R⁻¹ H of row t, summed as [`Propagation`] sums it, so that it
     /// factors wherever the propagation's did: the passes' Cholesky fallback for a batch of
     /// rows whose LDLᵀ lanes fail at the rounding of a condition ~1e17.
     pub(super) fn weighted_system(
@@ -153,14 +154,7 @@ impl ScalarRowFilter {
         t: usize,
         weights: &[f64],
     ) -> SymmetricBand {
-        let (w, n) = (self.width(), self.dynamics.order);
-        let mut observed = SymmetricBand::zeros(w * n, self.bandwidth());
-        let rows = if t > n { t..=t } else { 1..=t };
-        for s in rows {
-            let row_weights = &weights[(s - 1) * w..s * w];
-            self.add_observation(&mut observed, n.saturating_sub(s), |ell| row_weights[ell]);
-        }
-        sum(precision, &observed)
+        sum(precision, &self.observed_band(t, weights))
     }
 
     /// Λ_t for rows t = 1..=height of an image with per-pixel 1/σ_θ² `weights`, None where
