@@ -27,8 +27,10 @@
    plus Gaussian noise σ = 0.1 (seed 0); PSNR and wall time (one call) of ``kf.denoise`` and
    common denoisers (BM3D if the ``bm3d`` package is installed).
 
-Run: ``python benches/bench_row_filters.py [--quick]``; the Markdown report is printed and
-written to ``bench_out/bench_row_filters.md``.
+Run: ``python benches/bench_row_filters.py [--quick] [--sections loss speed images] [--rhos ...]
+[--ratios ...]``; the Markdown report is printed and written to ``bench_out/bench_row_filters.md``.
+The README's high-SNR table: ``--sections loss --rhos 0.8 0.9 0.95 0.99 --ratios 100 1000
+10000``.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ import platform
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +69,7 @@ class Config:
     loss_size: int
     orders: tuple[tuple[int, int], ...]
     rhos: tuple[float, ...]
+    ratios: tuple[float, ...]
     speed_size: int
     repeats: int
     vector_width: int
@@ -85,6 +88,7 @@ def make_config(quick: bool) -> Config:
             loss_size=32,
             orders=((1, 1), (2, 2), (4, 4)),
             rhos=(0.9, 0.95),
+            ratios=RATIOS,
             speed_size=1024,
             repeats=1,
             vector_width=512,
@@ -99,6 +103,7 @@ def make_config(quick: bool) -> Config:
         loss_size=48,
         orders=ORDERS,
         rhos=RHOS,
+        ratios=RATIOS,
         speed_size=2048,
         repeats=3,
         vector_width=1024,
@@ -271,7 +276,7 @@ def loss_summary(results: list[dict]) -> list[str]:
 def loss_section(cfg: Config) -> str:
     """Section 1: the exact loss table and its summary."""
     start, size = time.perf_counter(), cfg.loss_size
-    cases = [(o, r, q) for o in cfg.orders for r in cfg.rhos for q in RATIOS]
+    cases = [(o, r, q) for o in cfg.orders for r in cfg.rhos for q in cfg.ratios]
     results = [loss_case(*case, size) for case in cases]
     check = reference_check(size)
     elapsed = time.perf_counter() - start
@@ -787,10 +792,28 @@ def main() -> None:
     parser.add_argument(
         "--quick", action="store_true", help="32² loss grid, fewer cases, 1 repeat, no BM3D"
     )
+    parser.add_argument(
+        "--sections",
+        nargs="+",
+        choices=tuple(SECTIONS),
+        default=list(SECTIONS),
+        help="the sections to run (default: all three)",
+    )
+    parser.add_argument(
+        "--rhos", nargs="+", type=float, help="ρ of the loss table (default 0.5 0.8 0.9 0.95)"
+    )
+    parser.add_argument(
+        "--ratios",
+        nargs="+",
+        type=float,
+        help="σ_x²/σ_θ² of the loss table (default 0.1 1 10, the issue's grid; e.g. 100 1000 "
+        "10000 for the high-SNR table of the README)",
+    )
     args = parser.parse_args()
     cfg = make_config(args.quick)
+    cfg = replace(cfg, rhos=tuple(args.rhos or cfg.rhos), ratios=tuple(args.ratios or cfg.ratios))
     start = time.perf_counter()
-    sections = [loss_section(cfg), speed_section(cfg), images_section(cfg)]
+    sections = [SECTIONS[name](cfg) for name in args.sections]
     report = "\n\n".join(
         [f"## Row-filter benchmark{' (--quick)' if args.quick else ''}", f"- {machine_line()}"]
         + sections
@@ -799,6 +822,9 @@ def main() -> None:
     print(report)
     OUT_PATH.parent.mkdir(exist_ok=True)
     OUT_PATH.write_text(report, encoding="utf-8")
+
+
+SECTIONS = {"loss": loss_section, "speed": speed_section, "images": images_section}
 
 
 if __name__ == "__main__":

@@ -506,6 +506,21 @@ def test_slowly_settling_rows_are_refitted_until_they_settle():
     assert ref.settled(0.0, None, 1e-3) and not ref.settled(1e-9, None, 1e-3)
 
 
+@pytest.mark.parametrize("ar_order,limit", [(2, 1.04), (4, 1.005)])
+def test_drift_at_high_snr_is_measured_on_the_part_that_changes(ar_order, limit):
+    # σ_x²/σ_θ² = 1e4: P_e ≈ Q (the innovation, the same every row), and its changes measured
+    # against the band's largest entry looked ~1e3 times too small: the models froze after a
+    # few rows and lost 6.7 % (m = 2) and 2.5 % (m = 4) against the optimal filter here; the
+    # drift is now measured against the band of P_e − Q (Rust and twin alike): 2.8 %, 0.07 %
+    model, noise_var, shape = kf.ARFieldModel([0.95, 0.95], [1, 2]), 1e-4, (32, 32)
+    _, z = noisy(model, shape, noise_var, 4)
+    filt = kf.ScalarRowFilter(model, noise_var, shape[1], ar_order=ar_order)
+    want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var, ar_order=ar_order)
+    np.testing.assert_allclose(filt.filter(z), want, atol=1e-9 * np.abs(z).max())
+    optimal = kf.VectorRowFilter(model, noise_var, shape[1]).error_variance(shape[0]).mean()
+    assert optimal <= exact_mse(filt, model, noise_var, shape) < limit * optimal
+
+
 @pytest.mark.parametrize("order,noise_var", [((4, 3), 1.0), ((4, 4), 1e-2)])
 def test_row_models_beyond_float64_take_the_square_root_fit(order, noise_var):
     # ρ = 0.999: the innovation variance D of the AR(n_x) fit along the row falls to the

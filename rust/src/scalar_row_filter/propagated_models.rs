@@ -22,7 +22,6 @@
 use super::{ScalarRowFilter, JITTERS};
 use crate::banded::SymmetricBand;
 use crate::error::Result;
-use crate::vector_row_filter::Small;
 
 /// A band of blocks, lag by lag: `lags[d]` holds the n × n blocks Cov(v_ℓ, v_{ℓ+d}) of
 /// ℓ = 0..W − d, row-major, one after the other (entry (ℓ, a, b) at ℓ n² + a n + b).
@@ -116,11 +115,7 @@ impl ScalarRowFilter {
     /// the whitened basis (stationary state covariance σ² R_x ⊗ I, from the row's modes).
     pub(super) fn innovation_band(&self) -> Lags {
         let n = self.dynamics.order;
-        let mut unit = Small::zeros();
-        unit.view_mut((0, 0), (n, n)).fill_with_identity();
-        let added = unit - self.whitened.transition * self.whitened.transition.transpose();
-        let modal: Vec<Small> = self.mode_var.iter().map(|v| added * *v).collect();
-        self.band(&modal)
+        self.innovation_blocks()
             .iter()
             .map(|lag| {
                 let mut flat = Vec::with_capacity(lag.nrows() * n * n);
