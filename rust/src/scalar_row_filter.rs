@@ -38,7 +38,7 @@ use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use std::ops::Range;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 mod propagated_models;
 
@@ -126,8 +126,8 @@ struct Plan {
     factors: Vec<BandCholesky>,
     row_precision: Vec<usize>,
     row_factor: Vec<usize>,
-    /// The band of the one-row prediction's Q (`innovation_band`), for the weighted rows.
-    innovation: OnceLock<propagated_models::Lags>,
+    /// The band of the one-row prediction's Q (`innovation_blocks`), for the weighted rows.
+    innovation: propagated_models::Lags,
 }
 
 impl Plan {
@@ -559,6 +559,8 @@ impl ScalarRowFilter {
 
     fn build_plan(&self, height: usize) -> Result<Plan> {
         let n = self.dynamics.order;
+        // the band of Q: the scale of the bands' drift and the weighted rows' prediction
+        let innovation = self.innovation_blocks();
         let mut plan = Plan {
             rows: 0,
             settled: false,
@@ -566,13 +568,12 @@ impl ScalarRowFilter {
             factors: Vec::new(),
             row_precision: Vec::new(),
             row_factor: Vec::new(),
-            innovation: OnceLock::new(),
+            innovation: propagated_models::lags_of(&innovation, n),
         };
         // the band the current model was fitted to, the previous row's, and its change
         let mut fitted: Option<Vec<Mat<f64>>> = None;
         let mut previous_band: Option<Vec<Mat<f64>>> = None;
         let mut previous_change: Option<f64> = None;
-        let innovation = self.innovation_blocks();
         for (t, modal) in self
             .whitened
             .prediction_errors(self.noise_var, &self.mode_var)

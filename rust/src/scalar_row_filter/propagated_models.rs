@@ -61,7 +61,7 @@ impl<'a> Propagation<'a> {
         weights: &'a [f64],
     ) -> Result<Self> {
         ScalarRowFilter::check_weights(weights)?;
-        let innovation = plan.innovation.get_or_init(|| filter.innovation_band());
+        let innovation = &plan.innovation;
         Ok(Self {
             filter,
             plan,
@@ -110,21 +110,26 @@ impl<'a> Propagation<'a> {
     }
 }
 
+/// The band blocks of `ScalarRowFilter::band` (lag d: row ℓ, column a n + b) as [`Lags`].
+pub(super) fn lags_of(blocks: &[faer::Mat<f64>], n: usize) -> Lags {
+    blocks
+        .iter()
+        .map(|lag| {
+            let mut flat = Vec::with_capacity(lag.nrows() * n * n);
+            for ell in 0..lag.nrows() {
+                flat.extend((0..n * n).map(|ab| lag[(ell, ab)]));
+            }
+            flat
+        })
+        .collect()
+}
+
 impl ScalarRowFilter {
     /// The band of Q = σ² R_x ⊗ (I − S Sᵀ), the covariance the prediction of one row adds in
     /// the whitened basis (stationary state covariance σ² R_x ⊗ I, from the row's modes).
+    #[cfg(test)]
     pub(super) fn innovation_band(&self) -> Lags {
-        let n = self.dynamics.order;
-        self.innovation_blocks()
-            .iter()
-            .map(|lag| {
-                let mut flat = Vec::with_capacity(lag.nrows() * n * n);
-                for ell in 0..lag.nrows() {
-                    flat.extend((0..n * n).map(|ab| lag[(ell, ab)]));
-                }
-                flat
-            })
-            .collect()
+        lags_of(&self.innovation_blocks(), self.dynamics.order)
     }
 
     /// Hᵀ R⁻¹ H of row t (1-based) of an image with per-pixel 1/σ_θ² `weights`: the
