@@ -295,7 +295,8 @@ def loss_section(cfg: Config) -> str:
             *loss_summary(results),
             "",
             "Exact MSEs, no sampling: optimal = `VectorRowFilter.error_variance(H).mean()`; "
-            "scalar = `ScalarRowFilter` (default m = max(n_x, 2)) run on the H·W eigen-images v_ab "
+            "scalar = `ScalarRowFilter` (default m: 8 for n_y = 1, max(n_x, 2) otherwise) run on "
+            "the H·W eigen-images v_ab "
             "of Cov(x), MSE = Σ [λ_ab ‖E v_ab − v_ab‖² + σ_θ² ‖E v_ab‖²] / (H·W) (the white "
             "noise shares that orthonormal basis); bound = `wiener_bound`. Literal = "
             f"`ar_order=1`. {len(results)} cases in {elapsed:.0f} s (default threads).",

@@ -28,16 +28,24 @@ fn bench_scalar(c: &mut Criterion) {
     let mut group = c.benchmark_group("scalar_row_filter_2048");
     group.throughput(Throughput::Elements((side * side) as u64));
     group.sample_size(10);
-    for order in [1usize, 2, 3, 4] {
+    // the defaults (m = 8 for n_y = 1, max(n_x, 2) otherwise) and (1,1) with m = 2
+    for (order, ar_order) in [
+        (1usize, None),
+        (1, Some(2)),
+        (2, None),
+        (3, None),
+        (4, None),
+    ] {
         let model = FieldModel::new(&[0.9, 0.9], &[order, order], 1.0).unwrap();
         let z = image(&model, side);
         let mut out = vec![0.0; z.len()];
-        let filter = ScalarRowFilter::new(&model, 1.0, side, None, ModeSet::Ends).unwrap();
+        let filter = ScalarRowFilter::new(&model, 1.0, side, ar_order, ModeSet::Ends).unwrap();
         filter
             .filter_image(&z, None, &mut out, side, false)
             .unwrap(); // builds the plan
+        let m = ar_order.map_or(String::new(), |m| format!(" m={m}"));
         for smooth in [false, true] {
-            let id = format!("({order},{order}) smooth={smooth}");
+            let id = format!("({order},{order}){m} smooth={smooth}");
             group.bench_with_input(BenchmarkId::from_parameter(id), &smooth, |b, &s| {
                 b.iter(|| one_thread(|| filter.filter_image(&z, None, &mut out, side, s).unwrap()))
             });

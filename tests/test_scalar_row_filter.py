@@ -386,7 +386,7 @@ def test_exact_mse_matches_monte_carlo():
 )
 def test_ar_order_is_the_one_the_kernel_uses(order, ar_order):
     filt = kf.ScalarRowFilter(kf.ARFieldModel([0.8, 0.7], list(order)), 1.0, 16, ar_order)
-    want = ar_order if ar_order is not None else max(order[1], 2)
+    want = ar_order if ar_order is not None else (8 if order[0] == 1 else max(order[1], 2))
     assert filt.ar_order == want
     # the kernel's half-bandwidth n_y (m + 1) − 1 follows from the m it fitted
     assert filt._core.bandwidth() == order[0] * (filt.ar_order + 1) - 1
@@ -452,7 +452,9 @@ def test_blind_stationary_denoise_loses_nothing_to_the_toeplitz_modes():
     clean = data.coins() / 255.0
     z = clean + 0.1 * np.random.default_rng(0).standard_normal(clean.shape)
     model, mean, _ = kf.model_from_noisy(z)
-    ends = kf.ScalarRowFilter(model, kf.estimate_noise_var(z), z.shape[1], smooth=True, mean=mean)
+    m = max(model.order[1], 2)  # denoise's row model (its docstring, adaptive=False)
+    nv = kf.estimate_noise_var(z)
+    ends = kf.ScalarRowFilter(model, nv, z.shape[1], m, smooth=True, mean=mean)
     want = np.mean((ends.filter(z) - clean) ** 2)
     got = np.mean((kf.denoise(z, adaptive=False) - clean) ** 2)
     assert got == pytest.approx(want, rel=0.005)
@@ -519,6 +521,24 @@ def test_drift_at_high_snr_is_measured_on_the_part_that_changes(ar_order, limit)
     np.testing.assert_allclose(filt.filter(z), want, atol=1e-9 * np.abs(z).max())
     optimal = kf.VectorRowFilter(model, noise_var, shape[1]).error_variance(shape[0]).mean()
     assert optimal <= exact_mse(filt, model, noise_var, shape) < limit * optimal
+
+
+@pytest.mark.parametrize("order,noise_var", [((1, 1), 1.0 / 3.0), ((1, 2), 1e-4)])
+def test_a_one_row_state_takes_a_long_row_model_by_default(order, noise_var):
+    # n_y = 1: nothing else in the state absorbs the AR model's misfit to P_e, and the loss
+    # grows as ρ → 1 (ρ = 0.99 on 32², against the optimal filter: (1,1) at σ_x²/σ_θ² = 3
+    # +8.6 % with m = 2, (1,2) at 1e4 +12.0 %); the default m = 8 keeps both under 2 %
+    model, shape = kf.ARFieldModel([0.99, 0.99], list(order)), (32, 32)
+    _, z = noisy(model, shape, noise_var, 6)
+    filt = kf.ScalarRowFilter(model, noise_var, shape[1])
+    assert filt.ar_order == 8
+    want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var)
+    np.testing.assert_allclose(filt.filter(z), want, atol=1e-8 * np.abs(z).max())
+    optimal = kf.VectorRowFilter(model, noise_var, shape[1]).error_variance(shape[0]).mean()
+    short = kf.ScalarRowFilter(model, noise_var, shape[1], ar_order=max(order[1], 2))
+    mse, short_mse = (exact_mse(f, model, noise_var, shape) for f in (filt, short))
+    assert optimal <= mse < 1.02 * optimal
+    assert mse < short_mse
 
 
 @pytest.mark.parametrize("order,noise_var", [((4, 3), 1.0), ((4, 4), 1e-2)])

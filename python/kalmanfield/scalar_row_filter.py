@@ -39,10 +39,14 @@ class ScalarRowFilter(RowFilter):
     prediction error fitted to the optimal filter's P_e (with the γ_{ℓ+1} fix). The source's
     version models only the current row's error with an AR(1) and loses 21–35 % for (2,2);
     here the modelled vector is the prediction error of all n_y rows of the state (so older
-    rows are corrected too), it follows a block AR(m) along the row with m = `ar_order`
-    (default max(n_x, 2): within 0.4 % of m = n_x + 1 with a narrower band; m = 1 loses
-    up to +4.2 % for (1, 1)), and the filter + smoother along the
-    row becomes one banded SPD solve of half-bandwidth n_y(m+1) − 1: O(W n_y² m) per row.
+    rows are corrected too), it follows a block AR(m) along the row with m = `ar_order`,
+    and the filter + smoother along the row becomes one banded SPD solve of half-bandwidth
+    n_y(m+1) − 1: O(W n_y² m) per row. Default m: max(n_x, 2) for n_y ≥ 2 (within 0.4 % of
+    m = n_x + 1 with a narrower band); 8 for n_y = 1, where nothing else in the state absorbs
+    the model's misfit and the loss grows as ρ → 1 ((1, 1) at ρ = 0.99, σ_x²/σ_θ² = 3:
+    +10.7 % with m = 2, +1.4 % with m = 8; m = 8 is never worse on the README's grids, and
+    the band b = 8 costs 1.6× the time of m = 2, 4× with weighted rows). m = 1 is the
+    source's scheme for (1, 1): up to +4.2 % on the issue's grid.
     The model follows the optimal P_e,k down the rows: refitted whenever the band has drifted
     from the one it was fitted to by more than 0.1 % of the band of P_e − Q (the part that
     changes from row to row), and frozen once the band has settled (the geometric tail of
@@ -51,9 +55,8 @@ class ScalarRowFilter(RowFilter):
     exact stationary prior.
 
     At high SNR (σ_x²/σ_θ² ≥ 100, beyond the issue's grid) with ρ ≥ 0.95 the default band
-    loses more (up to +4.5 % at ρ = 0.95, +14 % for (1, 2) at ρ = 0.99; README, "High SNR"):
-    ar_order = max(n_x, 2) + 2 keeps the causal loss within ~1.5 % there except for
-    (1, 2) at ρ = 0.99.
+    of n_y = 2 loses more (up to +2.9 % causal, +5.3 % smoothed for (2, 2) at ρ = 0.99;
+    README, "High SNR"); ar_order = max(n_x, 2) + 2 cuts that to +1.5 % / +2.9 %.
 
     ar_order=1 with a (1, 1) model is the source's scheme [P 3.11–3.17].
     smooth=True adds the RTS pass over the rows (the default of :func:`denoise`): within
@@ -248,8 +251,11 @@ class ScalarRowFilter(RowFilter):
 
     @property
     def ar_order(self) -> int:
-        """Order m of the block AR model along the row."""
-        return self._ar_order if self._ar_order is not None else max(self._model.order[1], 2)
+        """Order m of the block AR model along the row (the default: 8 for n_y = 1,
+        max(n_x, 2) otherwise; see the class docstring)."""
+        if self._ar_order is not None:
+            return self._ar_order
+        return _core.default_ar_order(*self._model.order)
 
     def __repr__(self) -> str:
         return (

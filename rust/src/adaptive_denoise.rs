@@ -92,7 +92,13 @@ fn frame(
     let mut weights = Scratch::zeros(z.len());
     normalise(z, out, &mut scale, &mut residual, &mut weights, noise_var);
     let nominal = 1.0 / sample_median(&weights);
-    let filter = ScalarRowFilter::new(settings.model, nominal, width, None, ModeSet::Toeplitz)?
+    // m = max(n_x, 2), not the filter's default: every row here is weighted (refitted at
+    // O(W m³)), and the detail model's short reach gains nothing from a longer row model
+    let m = crate::vector_row_filter::row_axes(settings.model)?
+        .1
+        .order()
+        .max(2);
+    let filter = ScalarRowFilter::new(settings.model, nominal, width, Some(m), ModeSet::Toeplitz)?
         .with_row_models(settings.row_models);
     let mut detail = Scratch::zeros(z.len());
     filter.filter_image(

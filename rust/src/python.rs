@@ -586,6 +586,13 @@ fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f6
     Ok(py.detach(|| crate::noise_level::haar_mad_noise_var(values, frames, height, width))?)
 }
 
+/// The default order m of the quasi-optimal filter's row model for multiplicities (n_y, n_x)
+/// (`scalar_row_filter::default_ar_order`).
+#[pyfunction]
+fn default_ar_order(n_y: usize, n_x: usize) -> usize {
+    crate::scalar_row_filter::default_ar_order(n_y, n_x)
+}
+
 /// `RowModels` by name.
 fn row_models_of(name: &str) -> PyResult<RowModels> {
     match name {
@@ -677,6 +684,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
     m.add_function(wrap_pyfunction!(haar_noise_var, m)?)?;
+    m.add_function(wrap_pyfunction!(default_ar_order, m)?)?;
     m.add_function(wrap_pyfunction!(axis_correlation_table, m)?)?;
     m.add_function(wrap_pyfunction!(adaptive_denoise_into, m)?)?;
     m.add("SIGNAL_FLOOR", crate::adaptive_denoise::SIGNAL_FLOOR)?;

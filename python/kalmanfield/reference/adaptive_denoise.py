@@ -35,7 +35,11 @@ def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True, row_models="
     weights = np.where(observed, signal / noise_var, 0.0)
     residual = np.where(observed, (np.where(observed, z, 0.0) - mu) / np.sqrt(signal), 0.0)
     nominal = 1.0 / _sample_median(weights.ravel())
-    plan = scalar_filter_plan(rho, order, 1.0, nominal, z.shape[1], z.shape[0], modes="toeplitz")
+    # m = max(n_x, 2), not the filter's default (as the Rust kernel: every row is weighted)
+    m = max(order[1], 2)
+    plan = scalar_filter_plan(
+        rho, order, 1.0, nominal, z.shape[1], z.shape[0], ar_order=m, modes="toeplitz"
+    )
     detail = scalar_row_filter(
         residual,
         rho,
@@ -43,6 +47,7 @@ def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True, row_models="
         1.0,
         nominal,
         smooth=smooth,
+        ar_order=m,
         plan=plan,
         weights=weights,
         row_models=row_models,

@@ -48,7 +48,9 @@ observed (H = (I 0 … 0)).
        m = 1 is exactly [P 3.11–3.17] with the γ_{ℓ+1} fix).  So the older rows in the
        state are corrected by the current innovation through their modelled cross-covariance
        with u_k (the literal scheme never corrects them: +25…+196 % for (2,2)).
-   (b) m = max(n_x, 2) by default.  m ≥ n_x is essential (m = n_x − 1 loses up to +40 %, m = 1
+   (b) m = max(n_x, 2) by default for n_y ≥ 2, m = 8 for n_y = 1 (``default_ar_order``: with
+       one row in the state the loss grows as ρ → 1, +10.7 % for (1,1) at ρ = 0.99 with
+       m = 2, +1.4 % with m = 8).  m ≥ n_x is essential (m = n_x − 1 loses up to +40 %, m = 1
        up to +800 %); m = n_x keeps every n_x ≥ 2 case of the target grid within +0.4 % (32×32:
        (2,2) +0.26 %, (1,2) +0.34 %, (3,3) +0.02 %; m = n_x + 1 gains < 0.1 % for a wider
        band), and (1,1) needs m = 2 (m = 1: +3.8 %; m = 2: within ~2 %, worst ρ = 0.95).
@@ -521,6 +523,11 @@ def observation_block(lower: np.ndarray, index: int, width: int, noise_var: floa
     return sparse.kron(sparse.identity(width), np.outer(h, h) / noise_var, format="csr")
 
 
+def default_ar_order(n_y, n_x):
+    """Twin of the Rust ``default_ar_order``: m = 8 for n_y = 1, max(n_x, 2) otherwise."""
+    return 8 if n_y == 1 else max(n_x, 2)
+
+
 def scalar_filter_plan(
     rho,
     order,
@@ -542,10 +549,10 @@ def scalar_filter_plan(
     settles (``settled``, on the same scale; a refit that fails,
     beyond float64, keeps the last model).  transient=False: one model, fitted to the
     steady-state P_e,∞, serves every row after the (exact) start.  ar_order None →
-    max(n_x, 2).  modes="toeplitz": the band from the Fourier modes of the infinite row
+    ``default_ar_order``.  modes="toeplitz": the band from the Fourier modes of the infinite row
     (``toeplitz_band``); modes="ends": spliced with the exact band of a `span`-point row at
     both ends (``ends_band``; the Rust filter's ``ends_span``)."""
-    n, m = order[0], (max(order[1], 2) if ar_order is None else ar_order)
+    n, m = order[0], (default_ar_order(*order) if ar_order is None else ar_order)
     bw = n * (m + 1) - 1
     if modes == "ends" and span is None:
         raise ValueError("modes=\"ends\" needs the span W' (the Rust filter's ends_span)")
