@@ -108,9 +108,10 @@ observed (H = (I 0 … 0)).
    causal loss vs the optimal row filter ≤ +2.12 % (worst (1,1), ρ = 0.95, σ_x²/σ_θ² = 1; all n ≥ 2
    cases ≤ +0.47 %); smoothed gap vs the Wiener bound ≤ +2.10 %.  m = 4 for (1,1) ρ = 0.95:
    ≤ +0.67 %.  Outside the target grid, (1,1) ρ = 0.99: m = 4 loses +3.1…+5.7 % (m = 1: +6…+20 %).
-   With the default m = max(n_x, 2) (48×48, same grid, ``benches/bench_row_filters.py``):
+   With m = max(n_x, 2) for every model (48×48, same grid, ``benches/bench_row_filters.py``):
    causal loss ≤ +2.05 % (the same (1,1) worst case), all n ≥ 2 cases ≤ +0.46 %; smoothed
-   gap ≤ +2.03 %.
+   gap ≤ +2.03 %.  With ``default_ar_order`` (m = 8 for n_y = 1; 2026-11-27, after the
+   drift scale): loss ≤ +0.34 %, gap ≤ +0.65 %, both (2,2), ρ = 0.95, σ_x²/σ_θ² = 10.
    Scripts and full tables: /work/scratch_rowfilter (table.py, scan_grid.py, literal.py).
 
 4. ``linear_estimator_mse`` gives the exact per-pixel MSE of ANY linear row estimator by
