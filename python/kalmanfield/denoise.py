@@ -72,7 +72,10 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
         raise ValueError("the stack has no frames: there is no model to fit")
     if np.isnan(stack).all():
         raise ValueError("every pixel is NaN (missing): there is no model to fit")
-    mean = float(np.nanmean(stack))
+    mean = float(np.mean(stack))
+    missing = np.isnan(mean)  # (NaN pixels; the plain mean is the cheaper pass)
+    mean_of = np.nanmean if missing else np.mean
+    mean = float(mean_of(stack)) if missing else mean
     centred = np.ascontiguousarray(stack - mean)
     peak = np.nanmax(np.abs(centred))  # a NumPy float: peak² of 1e300 is inf, not an error
     if not peak > 0:
@@ -82,7 +85,7 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     variance = float(np.mean([f[2] for f in fits]))
     with np.errstate(over="ignore", invalid="ignore"):  # back to the image's units
         units = peak**2
-        noise = float(max(float(np.nanmean(centred**2)) - variance, 0.0) * units)
+        noise = float(max(float(mean_of(centred**2)) - variance, 0.0) * units)
         variance = float(variance * units)
     if not np.isfinite(variance):
         raise ValueError("the image's variance overflows float64: rescale it")

@@ -245,17 +245,24 @@ def minimise_over_rho(
     objective: Callable[[np.ndarray], np.ndarray], points: int, iterations: int
 ) -> float:
     """argmin over ρ ∈ [RHO_MIN, RHO_MAX] of a vectorised `objective` (array of ρ → array of
-    values): a grid of `points` in -ln(1-ρ) (dense near 1), then `iterations` steps of
-    golden-section refinement in the best bracket."""
+    values): a grid of `points` in -ln(1-ρ) (dense near 1), then grids of 17 points across
+    the best bracket until it is as narrow as `iterations` golden-section steps would leave
+    it (0.618^iterations of the first bracket; ~a quarter of the objective's calls)."""
     grid = 1 - np.exp(-np.linspace(-np.log1p(-RHO_MIN), -np.log1p(-RHO_MAX), points))
-    k = int(np.argmin(objective(grid)))
-    lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
-    golden = (np.sqrt(5) - 1) / 2
-    for _ in range(iterations):
-        a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
-        fa, fb = objective(np.array([a, b]))
-        lo, hi = (lo, b) if fa < fb else (a, hi)
+    lo, hi = _bracket(grid, objective(grid))
+    narrowest = (hi - lo) * ((np.sqrt(5) - 1) / 2) ** iterations
+    for _ in range(iterations):  # (a bound: float64 may stop the bracket from narrowing)
+        if hi - lo <= narrowest:
+            break
+        grid = np.linspace(lo, hi, 17)
+        lo, hi = _bracket(grid, objective(grid))
     return 0.5 * (lo + hi)
+
+
+def _bracket(grid: np.ndarray, values: np.ndarray) -> tuple[float, float]:
+    """The grid points either side of the smallest value."""
+    k = int(np.argmin(values))
+    return float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)])
 
 
 def _best_rho(gram: np.ndarray, n: int) -> tuple[float, float]:

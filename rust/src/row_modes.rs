@@ -59,6 +59,9 @@ pub struct Fourier {
     values: Vec<f64>,
     /// Trapezoid weights 1/G (1/(2G) at both ends).
     weights: Vec<f64>,
+    /// cos(πk/G) for k = 0..2G: cos(d ω_g) = cosines[dg mod 2G] (the band's lags are walked
+    /// on every row of a plan; libm's cos was a tenth of a one-image plan).
+    cosines: Vec<f64>,
 }
 
 impl Fourier {
@@ -92,6 +95,9 @@ impl Fourier {
         Self {
             values: raw.iter().map(|s| s / mean).collect(),
             weights,
+            cosines: (0..2 * intervals)
+                .map(|k| (step * k as f64).cos())
+                .collect(),
         }
     }
 
@@ -102,12 +108,16 @@ impl Fourier {
 
     /// The band's block C_d (the same at every column) for d = 0..=lags.
     pub fn blocks(&self, modal: &[Small], lags: usize) -> Vec<Small> {
-        let step = std::f64::consts::PI / (self.weights.len() - 1) as f64;
+        let period = self.cosines.len();
         (0..=lags)
             .map(|d| {
-                let mut block = Small::zeros();
-                for (g, (m, wg)) in modal.iter().zip(&self.weights).enumerate() {
-                    block += m * (wg * (step * (d * g) as f64).cos());
+                let (mut block, mut k, stride) = (Small::zeros(), 0, d % period);
+                for (m, wg) in modal.iter().zip(&self.weights) {
+                    block += m * (wg * self.cosines[k]);
+                    k += stride; // k = dg mod 2G
+                    if k >= period {
+                        k -= period;
+                    }
                 }
                 block
             })

@@ -445,6 +445,9 @@ impl RowDynamics {
     /// One Riccati step of mode j in units of its variance v_j (so every mode is O(1)): row t
     /// observes h_t = row `observed(t)` of the readout with noise `ratio` = σ_θ² / v_j.
     pub(crate) fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
+        if self.order == 1 {
+            return self.scalar_riccati_step(t, previous[(0, 0)], ratio);
+        }
         let predicted = if t == 1 {
             self.prior
         } else if t <= self.order {
@@ -464,6 +467,26 @@ impl RowDynamics {
         }
     }
 
+    /// [`Self::riccati_step`] of a one-row state (n_y = 1): the same formulas on the (0, 0)
+    /// entries, the only non-zero ones (a plan walks thousands of modes per row).
+    fn scalar_riccati_step(&self, t: usize, previous: f64, ratio: f64) -> ModeCovariance {
+        let (a, h) = (self.transition[(0, 0)], self.readout[(0, 0)]);
+        let p = if t == 1 {
+            self.prior[(0, 0)]
+        } else {
+            a * previous * a + self.innovation[(0, 0)]
+        };
+        let c = p * h;
+        let mut predicted = Small::zeros();
+        let mut filtered = Small::zeros();
+        predicted[(0, 0)] = p;
+        filtered[(0, 0)] = p - c * c / (h * c + ratio);
+        ModeCovariance {
+            predicted,
+            filtered,
+        }
+    }
+
     /// (t, P_e,t per mode) of the modal Riccati for the mode variances `var` and noise
     /// variance `noise_var` (SPEC §2.2 [P 3.29, 3.30]), rows t = 1, 2, ….
     pub(crate) fn prediction_errors<'a>(
@@ -472,14 +495,15 @@ impl RowDynamics {
         var: &'a [f64],
     ) -> impl Iterator<Item = (usize, Vec<Small>)> + 'a {
         let ratios: Vec<f64> = var.iter().map(|v| noise_var / v).collect();
-        let mut current: Vec<ModeCovariance> = Vec::new();
+        let start = ModeCovariance {
+            predicted: self.prior,
+            filtered: self.prior,
+        };
+        let mut current = vec![start; var.len()];
         (1..).map(move |t| {
-            current = (0..var.len())
-                .map(|j| {
-                    let prev = current.get(j).map_or(self.prior, |c| c.filtered);
-                    self.riccati_step(t, &prev, ratios[j])
-                })
-                .collect();
+            for (mode, ratio) in current.iter_mut().zip(&ratios) {
+                *mode = self.riccati_step(t, &mode.filtered, *ratio);
+            }
             let modal = current.iter().zip(var).map(|(c, v)| c.predicted * *v);
             (t, modal.collect())
         })
