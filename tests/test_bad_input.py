@@ -43,6 +43,21 @@ def test_bad_sigma(sigma, exc):
 def test_bad_rho_type():
     with pytest.raises(TypeError, match="rho"):
         kf.ARFieldModel(["a"], [1])
+    for rho in (None, 1j):
+        with pytest.raises(TypeError, match="rho must be a real number or a sequence"):
+            kf.ARFieldModel(rho, 1)
+    with pytest.raises(TypeError, match="order must be a positive integer or a sequence"):
+        kf.ARFieldModel(0.5, 2.0)
+    assert kf.ARFieldModel(np.array(0.5), np.array(2)).order == (2,)  # 0-d arrays: scalars
+
+
+def test_templates_and_anisotropy_beyond_their_limits_are_refused():
+    """(2**30 coefficients, 9^8 directions of the sphere: they ran for minutes)"""
+    with pytest.raises(ValueError, match="template of orders"):
+        kf.ARFieldModel([0.5] * 30, 1).coefficients()
+    assert kf.ARFieldModel([0.5] * 3, 2).coefficients().shape == (3, 3, 3)
+    with pytest.raises(ValueError, match="at most 8 axes"):
+        kf.ARFieldModel([0.5] * 9, 1).anisotropy()
 
 
 MODEL = kf.ARFieldModel([0.8, 0.7], [2, 1])
@@ -109,6 +124,25 @@ def test_bad_seed_dtype_threads():
         MODEL.sample((3, 3), dtype=np.int32)
     with pytest.raises(ValueError, match="threads"):
         MODEL.sample((3, 3), threads=0)
+
+
+@pytest.mark.parametrize("threads", [0, -1, 1025, 10**6, 2**70])
+def test_thread_counts_out_of_range_are_refused(threads):
+    """(a pool per call: 20,000 threads ran for minutes, 2**70 overflowed unclearly)"""
+    z = np.zeros((4, 8))
+    row = kf.ARFieldModel([0.8, 0.7], [1, 1])
+    calls = [
+        lambda: MODEL.sample((3, 3), threads=threads),
+        lambda: kf.ScalarRowFilter(row, 1.0, 8, threads=threads),
+        lambda: kf.VectorRowFilter(row, 1.0, 8, threads=threads),
+        lambda: kf.denoise(z + 1.0, 0.1, threads=threads),
+        lambda: kf.identify(MODEL.sample((16, 16), seed=1), threads=threads),
+    ]
+    for call in calls:
+        with pytest.raises(ValueError, match="threads"):
+            call()
+    with pytest.raises(TypeError, match="threads"):
+        kf.denoise(z, 0.1, threads=1.5)
 
 
 def test_bad_lags():

@@ -522,6 +522,7 @@ def test_time_must_increase():
         (dict(order=[1, 2, 1]), ValueError, "order needs 2 values"),
         (dict(maneuver_std=[1.0]), ValueError, "maneuver_std needs 2 values"),
         (dict(memory=0), ValueError, "memory"),
+        (dict(memory=257), ValueError, "memory must lie in 1..=256"),
         (dict(memory=2.5), TypeError, "memory"),
         (dict(memory=True), TypeError, "memory"),
         (dict(max_misses=-1), ValueError, "max_misses"),

@@ -157,6 +157,23 @@ def test_local_moments_equal_reference_and_brute_force(shape, window):
         assert var[i, j] == pytest.approx(box.var(), abs=1e-12)
 
 
+@pytest.mark.parametrize("window", [41, 2**28 + 1, 2**64 + 1, 2**80 + 1])
+def test_a_window_wider_than_the_image_covers_it(window):
+    """(the running sums were sized by the window: an abort at 2**28, a hang at 2**64)"""
+    z = np.random.default_rng(2).standard_normal((6, 9))
+    mean, var = local_moments(z, window)
+    np.testing.assert_allclose(mean, np.full(z.shape, z.mean()), atol=1e-12)
+    np.testing.assert_allclose(var, np.full(z.shape, z.var()), atol=1e-12)
+    wide = kf.denoise(z, 0.1, window=window, threads=1)
+    np.testing.assert_array_equal(wide, kf.denoise(z, 0.1, window=19, threads=1))
+
+
+def test_pixels_whose_moments_overflow_are_refused_not_a_hang():
+    """(NaN box moments were widened for ever)"""
+    with pytest.raises(ValueError, match="overflow float64"):
+        kf.denoise(np.full((2, 2), 1e308), noise_var=1.0, threads=1)
+
+
 def test_local_moments_of_a_stack():
     z = np.random.default_rng(1).standard_normal((3, 8, 6))
     mean, var = local_moments(z, 3)

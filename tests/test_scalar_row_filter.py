@@ -382,11 +382,13 @@ def test_exact_mse_matches_monte_carlo():
 
 
 @pytest.mark.parametrize(
-    "order,ar_order", [((1, 1), None), ((2, 2), None), ((3, 4), None), ((2, 1), 3)]
+    "order,ar_order",
+    [((1, 1), None), ((2, 2), None), ((3, 4), None), ((2, 1), 3), ((2, 9), None), ((1, 12), None)],
 )
 def test_ar_order_is_the_one_the_kernel_uses(order, ar_order):
     filt = kf.ScalarRowFilter(kf.ARFieldModel([0.8, 0.7], list(order)), 1.0, 16, ar_order)
-    want = ar_order if ar_order is not None else (8 if order[0] == 1 else max(order[1], 2))
+    # (n_x > 8: the longest row model there is, not a refusal of a valid model)
+    want = ar_order if ar_order is not None else (8 if order[0] == 1 else min(order[1], 8))
     assert filt.ar_order == want
     # the kernel's half-bandwidth n_y (m + 1) − 1 follows from the m it fitted
     assert filt._core.bandwidth() == order[0] * (filt.ar_order + 1) - 1

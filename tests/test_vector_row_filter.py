@@ -151,6 +151,8 @@ def test_stack_dtypes_mean_and_pickle():
         ),
         (lambda m: _filter8(m).filter(np.ones((4, 8), bool)), TypeError, "real"),
         (lambda m: _filter8(m).error_variance(0), ValueError, "height"),
+        # (the kernel kept every mode's 4 × 4 Riccati history: 25.6 GB, an abort)
+        (lambda m: _filter8(m).error_variance(10**11), MemoryError, "GiB"),
         (lambda m: kf.wiener_bound(m, -1.0, (4, 4)), ValueError, "noise_var"),
         (lambda m: kf.wiener_bound(m, 1.0, (4, 4, 4)), ValueError, "axes"),
     ],

@@ -7,7 +7,7 @@ import numbers
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_int, real_array, real_number
+from ._validation import positive_int, real_array, real_number, thread_count
 from .ar_field_model import ARFieldModel
 
 
@@ -69,7 +69,9 @@ def images(
         raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
     if arr.shape[-2] == 0 or arr.shape[-1] == 0:
         raise ValueError(f"the images have no {'rows' if arr.shape[-2] == 0 else 'columns'}")
-    if not finite or np.isfinite(arr.sum()):  # the fast path
+    with np.errstate(over="ignore"):  # (finite pixels whose sum overflows: checked below)
+        total = arr.sum() if finite else 0.0
+    if np.isfinite(total):  # the fast path
         return arr
     if missing and not np.isinf(arr).any():
         return arr
@@ -99,7 +101,7 @@ class RowFilter:
         self._width = positive_int(width, "width")
         self._smooth = bool(smooth)
         self._mean = real_number(mean, "mean")
-        self._threads = None if threads is None else positive_int(threads, "threads")
+        self._threads = thread_count(threads)
         unit, ratio = unit_scale(self._model, self._noise_var)
         return unit._core, ratio
 

@@ -42,6 +42,20 @@ def positive_int(value: Any, name: str) -> int:
     return int(value)
 
 
+#: The most threads a call may start (a pool per call; thousands of threads only queue).
+MAX_THREADS = 1024
+
+
+def thread_count(threads: Any) -> int | None:
+    """None (all cores) or a thread count in 1..=MAX_THREADS."""
+    if threads is None:
+        return None
+    k = positive_int(threads, "threads")
+    if k > MAX_THREADS:
+        raise ValueError(f"threads must lie in 1..={MAX_THREADS} (or None: all cores), got {k}")
+    return k
+
+
 def nonnegative_int(value: Any, name: str) -> int:
     """An int ≥ 0 (numpy integers accepted, bools and floats refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):

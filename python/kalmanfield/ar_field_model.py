@@ -19,6 +19,7 @@ from ._validation import (
     grid_shape,
     positive_int,
     resolve_seed,
+    thread_count,
 )
 
 if TYPE_CHECKING:
@@ -27,10 +28,15 @@ if TYPE_CHECKING:
 RhoLike = Union[float, Sequence[float]]
 OrderLike = Union[int, Sequence[int]]
 
+#: Most coefficients :meth:`ARFieldModel.coefficients` makes.
+MAX_TEMPLATE = 2**26
+#: Most axes :meth:`ARFieldModel.anisotropy` integrates over.
+MAX_ANISOTROPY_AXES = 8
+
 
 def _per_axis(rho: RhoLike, order: OrderLike) -> tuple[tuple[float, ...], tuple[int, ...]]:
-    rhos = (rho,) if isinstance(rho, numbers.Real) else tuple(rho)
-    orders = (order,) if isinstance(order, numbers.Integral) else tuple(order)
+    rhos = _as_tuple(rho, numbers.Real, "rho", "real number")
+    orders = _as_tuple(order, numbers.Integral, "order", "positive integer")
     if len(rhos) == 1 and len(orders) > 1:
         rhos = rhos * len(orders)
     if len(orders) == 1 and len(rhos) > 1:
@@ -49,6 +55,18 @@ def _per_axis(rho: RhoLike, order: OrderLike) -> tuple[tuple[float, ...], tuple[
     if max(checked) > max_order:
         raise ValueError(f"orders above {max_order} are not supported, got {max(checked)}")
     return tuple(float(r) for r in rhos), checked
+
+
+def _as_tuple(value: object, kind: type, name: str, what: str) -> tuple:
+    """A scalar (a 0-d array too) as a 1-tuple, a sequence as a tuple, else a TypeError."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, kind):
+        return (value,)
+    try:
+        return tuple(value)  # type: ignore[call-overload]
+    except TypeError:
+        raise TypeError(f"{name} must be a {what} or a sequence of them, got {value!r}") from None
 
 
 class ARFieldModel:
@@ -109,7 +127,14 @@ class ARFieldModel:
     # -- formulas -----------------------------------------------------------------------
     def coefficients(self) -> np.ndarray:
         """Template c_j̄ of shape (n_1+1, …, n_N+1), c_0̄ = 1 (SPEC §1.2, [P 2.14] with the
-        sign fix): x_ī = -Σ_{j̄≠0} c_j̄ x_{ī-j̄} + β ξ_ī."""
+        sign fix): x_ī = -Σ_{j̄≠0} c_j̄ x_{ī-j̄} + β ξ_ī. At most 2**26 coefficients
+        (the generator never needs the template; it runs the axis cascade)."""
+        size = int(np.prod([n + 1 for n in self.order], dtype=object))
+        if size > MAX_TEMPLATE:
+            raise ValueError(
+                f"the template of orders {self.order} holds {size} coefficients, more than "
+                f"{MAX_TEMPLATE} (2**26)"
+            )
         return self._core.template()
 
     def correlation(self, lags: npt.ArrayLike) -> np.ndarray:
@@ -132,6 +157,12 @@ class ARFieldModel:
         Depends on the ρ of every axis (for the (1,1) model it does not: ≈ 0.10521)."""
         if self.ndim < 2:
             raise ValueError("anisotropy needs a model with at least two axes")
+        if self.ndim > MAX_ANISOTROPY_AXES:
+            # (a product rule of 8 nodes per angle: 8^(N-1) directions, 1.4 s for 8 axes)
+            raise ValueError(
+                f"anisotropy is computed for at most {MAX_ANISOTROPY_AXES} axes, "
+                f"the model has {self.ndim}"
+            )
         return self._core.anisotropy()
 
     # -- simulation ---------------------------------------------------------------------
@@ -163,7 +194,7 @@ class ARFieldModel:
         given = None if noise is None else finite_noise(noise, dims)
         out = allocate(dims, dt)
         seed_value = 0 if given is not None else resolve_seed(seed)
-        threads = None if threads is None else positive_int(threads, "threads")
+        threads = thread_count(threads)
         self._core.sample_into(out, seed_value, given, threads)
         return out
 

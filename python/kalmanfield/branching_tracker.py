@@ -77,7 +77,7 @@ class BranchingTracker:
     process_std : std of the white (ν+1)-th derivative per parameter (px/frame² for ν = 1).
     measurement_std : measurement noise std per parameter.
     confidence : β of the χ² index test (SPEC §3.2).
-    memory : N, number of index increments kept (sliding memory).
+    memory : N, number of index increments kept (sliding memory; 1…256).
     max_misses : longest run of coasted (missed) frames of a sequence.
     dt : frame step when :meth:`update` gets no time.
     p_detect : detection probability used by the score.

@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._row_filter import images, positive_float, row_model
-from ._validation import real_array
+from ._validation import real_array, thread_count
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
 from .scalar_row_filter import ScalarRowFilter, check_row_models
@@ -28,17 +28,19 @@ def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.nda
     NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
     box holds none."""
     z = images(image, missing=True)
-    _odd_window(window)
     mean, var = np.empty_like(z), np.empty_like(z)
-    _core.local_moments_into(z, int(window) // 2, mean, var)
+    _core.local_moments_into(z, _box_radius(window, z), mean, var)
     return mean, var
 
 
-def _odd_window(window: object) -> None:
+def _box_radius(window: object, z: np.ndarray) -> int:
+    """The half-width of an odd `window`, at most max(H, W) (a box that wide covers the
+    frame from every pixel: a wider one has the same moments)."""
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
         raise TypeError(f"window must be an odd integer, got {window!r}")
     if window < 1 or window % 2 == 0:
         raise ValueError(f"window must be a positive odd integer, got {window}")
+    return min(int(window) // 2, max(z.shape[-2:]))
 
 
 def estimate_noise_var(image: npt.ArrayLike) -> float:
@@ -149,8 +151,8 @@ def denoise(
         `window`² box around each pixel (:func:`local_moments`) and ξ a unit-variance AR
         field (`model`, default :data:`DETAIL_MODEL`). The normalised residual
         (z − μ)/σ = ξ + θ/σ is filtered by :class:`ScalarRowFilter` (Toeplitz modes,
-        ar_order = max(n_x, 2): every row is weighted, so refitted at O(W m³), and the
-        detail model's short reach gains nothing from the longer default of n_y = 1) with the
+        ar_order = max(n_x, 2) (at most 8): every row is weighted, so refitted at O(W m³), and
+        the detail model's short reach gains nothing from the longer default of n_y = 1) with the
         per-pixel noise variance σ_θ²/σ(s)²: little smoothing on edges and texture, strong in
         flat areas; x̂ = μ + σ ξ̂. With ρ = 0 this is the adaptive (Lee) Wiener filter of
         ``scipy.signal.wiener``; the AR model of ξ adds the row-Kalman smoothing.
@@ -170,8 +172,8 @@ def denoise(
         image has no plan to reuse; on camera, coins and moon, σ = 0.1, the PSNR moves by
         at most 0.02 dB against the default spliced ends and the filter is built 4–10×
         faster); a given model gets the default mode set. The scalar filter takes
-        ar_order = max(n_x, 2), not its longer default for n_y = 1: the identified models
-        are (1, 1) at ρ ≈ 0.93–0.99 on natural images, and a row model that follows them
+        ar_order = max(n_x, 2) (at most 8), not its longer default for n_y = 1: the identified
+        models are (1, 1) at ρ ≈ 0.93–0.99 on natural images, and a row model that follows them
         more faithfully lands nearer the vector filter's lower PSNR (σ = 0.1, m = 2 / 4 /
         8: camera 25.50 / 25.09 / 24.96 dB, moon 34.42 / 34.31 / 34.23; the model, not the
         filter, limits it) at 1.6–3× the time.
@@ -192,6 +194,7 @@ def denoise(
     if method not in ("scalar", "vector"):
         raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")
     check_row_models(row_models)
+    threads, smooth = thread_count(threads), bool(smooth)
     adaptive = method == "scalar" if adaptive is None else bool(adaptive)
     if adaptive and method == "vector":
         raise ValueError("adaptive denoising needs method='scalar' (per-pixel noise variances)")
@@ -217,7 +220,7 @@ def denoise(
         modes = "toeplitz"
     mean = float(np.nanmean(z)) if mean is None else float(mean)
     if method == "scalar":
-        m = max(model.order[1], 2)  # (docstring: adaptive=False)
+        m = _core.model_ar_order(model.order[1])  # (docstring: adaptive=False)
         filt = ScalarRowFilter(
             model, nv, z.shape[-1], m, smooth=smooth, mean=mean, modes=modes, threads=threads
         )
@@ -237,9 +240,8 @@ def _adaptive(
     """x̂ = μ + σ ξ̂ of :func:`denoise`'s adaptive mode: one Rust kernel (local moments,
     normalisation, weighted :class:`ScalarRowFilter` with Toeplitz modes), frames in
     parallel, each with its own nominal noise ratio. `passes`: (smooth, row_models)."""
-    _odd_window(window)
+    radius = _box_radius(window, z)
     out = np.empty_like(z)
     smooth, row_models = passes
-    radius = int(window) // 2
     _core.adaptive_denoise_into(z, nv, model._core, radius, smooth, out, threads, row_models)
     return out

@@ -16,6 +16,7 @@ from ._validation import (
     grid_shape,
     positive_int,
     resolve_seed,
+    thread_count,
 )
 from .ar_field_model import ARFieldModel
 
@@ -49,7 +50,7 @@ class FieldStream:
         self.frame_shape = grid_shape(frame_shape, model.ndim - 1, "frame_shape")
         self.dtype = float_dtype(dtype)
         self.seed = resolve_seed(seed)
-        self.threads = None if threads is None else positive_int(threads, "threads")
+        self.threads = thread_count(threads)
         self.time = 0
         self._history: list[np.ndarray] = []  # most recent first, at most n_t frames
 

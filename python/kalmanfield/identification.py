@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import observed, positive_int
+from ._validation import observed, positive_int, thread_count
 from .ar_field_model import ARFieldModel
 
 #: Highest multiplicity `identify` considers.
@@ -148,7 +148,7 @@ def identify(
     if max_order > MAX_IDENTIFIED_ORDER:
         raise ValueError(f"max_order must be at most {MAX_IDENTIFIED_ORDER}, got {max_order}")
     model_axes = _model_axes(axes, values.ndim)
-    threads = None if threads is None else positive_int(threads, "threads")
+    threads = thread_count(threads)
     if not valid.any():
         raise ValueError("data have no valid (finite, unmasked) pixel")
     complete = bool(valid.all())

@@ -14,8 +14,8 @@ from ._validation import (
     finite_noise,
     float_dtype,
     grid_shape,
-    positive_int,
     resolve_seed,
+    thread_count,
 )
 from .ar_field_model import ARFieldModel
 
@@ -45,6 +45,6 @@ def sample_product_field(
             raise ValueError(f"noise must hold {model.ndim} 1-D arrays, got {len(noise)}")
         given = [finite_noise(s, (n,), f"noise[{k}]") for k, (s, n) in enumerate(zip(noise, dims))]
     out = allocate(dims, dt)
-    threads = None if threads is None else positive_int(threads, "threads")
+    threads = thread_count(threads)
     model._core.product_into(out, 0 if given else resolve_seed(seed), given, threads)
     return out

@@ -41,12 +41,12 @@ class ScalarRowFilter(RowFilter):
     here the modelled vector is the prediction error of all n_y rows of the state (so older
     rows are corrected too), it follows a block AR(m) along the row with m = `ar_order`,
     and the filter + smoother along the row becomes one banded SPD solve of half-bandwidth
-    n_y(m+1) − 1: O(W n_y² m) per row. Default m: max(n_x, 2) for n_y ≥ 2 (within 0.4 % of
-    m = n_x + 1 with a narrower band); 8 for n_y = 1, where nothing else in the state absorbs
-    the model's misfit and the loss grows as ρ → 1 ((1, 1) at ρ = 0.99, σ_x²/σ_θ² = 3:
-    +10.7 % with m = 2, +1.4 % with m = 8; m = 8 is never worse on the README's grids, and
-    the band b = 8 costs 1.6× the time of m = 2, 4× with weighted rows). m = 1 is the
-    source's scheme for (1, 1): up to +4.2 % on the issue's grid.
+    n_y(m+1) − 1: O(W n_y² m) per row. Default m: max(n_x, 2) (at most 8) for n_y ≥ 2
+    (within 0.4 % of m = n_x + 1 with a narrower band); 8 for n_y = 1, where nothing else in
+    the state absorbs the model's misfit and the loss grows as ρ → 1 ((1, 1) at ρ = 0.99,
+    σ_x²/σ_θ² = 3: +10.7 % with m = 2, +1.4 % with m = 8; m = 8 is never worse on the
+    README's grids, and the band b = 8 costs 1.6× the time of m = 2, 4× with weighted rows).
+    m = 1 is the source's scheme for (1, 1): up to +4.2 % on the issue's grid.
     The model follows the optimal P_e,k down the rows: refitted whenever the band has drifted
     from the one it was fitted to by more than 0.1 % of the band of P_e − Q (the part that
     changes from row to row), and frozen once the band has settled (the geometric tail of

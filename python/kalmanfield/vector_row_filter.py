@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from . import _core
@@ -55,8 +57,10 @@ class VectorRowFilter(RowFilter):
         """(height, W) map of the per-pixel error variance (diag P) of this filter — of the
         smoother when smooth=True."""
         height = positive_int(height, "height")
-        # the map and the kernel's per-mode map of the same size
-        check_memory((height, self._width), np.dtype(np.float64), copies=2)
+        # the map, the kernel's per-mode map of the same size and, smoothed, each worker's
+        # per-row Riccati history of one mode (two 4 × 4 matrices a row)
+        history = 32 * (os.cpu_count() or 1) if self._smooth else 0
+        check_memory((height, 2 * self._width + history), np.dtype(np.float64))
         return self._in_image_units(self._core.error_variance(height, self._smooth))
 
     def __repr__(self) -> str:

@@ -17,7 +17,7 @@ use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
 use crate::row_modes::ModeSet;
-use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
+use crate::scalar_row_filter::{model_ar_order, RowModels, ScalarRowFilter};
 use crate::scratch::Scratch;
 use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
@@ -88,16 +88,16 @@ fn frame(
     let mut scale = Scratch::zeros(z.len());
     local_moments(z, 1, height, width, settings.radius, out, &mut scale)?;
     widen_empty_boxes(z, (height, width, settings.radius), out, &mut scale)?;
+    if !scale.iter().all(|v| v.is_finite()) {
+        return Err(overflow());
+    }
     let mut residual = Scratch::zeros(z.len());
     let mut weights = Scratch::zeros(z.len());
     normalise(z, out, &mut scale, &mut residual, &mut weights, noise_var);
     let nominal = 1.0 / sample_median(&weights);
-    // m = max(n_x, 2), not the filter's default: every row here is weighted (refitted at
-    // O(W m³)), and the detail model's short reach gains nothing from a longer row model
-    let m = crate::vector_row_filter::row_axes(settings.model)?
-        .1
-        .order()
-        .max(2);
+    // not the filter's default: every row here is weighted (refitted at O(W m³)), and the
+    // detail model's short reach gains nothing from a longer row model
+    let m = model_ar_order(row_axes(settings.model)?.1.order());
     let filter = ScalarRowFilter::new(settings.model, nominal, width, Some(m), ModeSet::Toeplitz)?
         .with_row_models(settings.row_models);
     let mut detail = Scratch::zeros(z.len());
@@ -173,6 +173,14 @@ fn normalise_pixels(
     }
 }
 
+/// The error of pixels whose local moments overflow float64.
+fn overflow() -> FieldError {
+    FieldError::NonFinite(
+        "the pixels' local moments overflow float64 (squares of |z| ≳ 1e154): rescale the image"
+            .into(),
+    )
+}
+
 /// Where a box holds no observed pixel (its moments are NaN), the moments of the box widened
 /// to radius 2r + 1, then 2(2r + 1) + 1, … until it holds one (at the latest when it covers
 /// the frame). An error if the frame has no observed pixel.
@@ -191,9 +199,13 @@ fn widen_empty_boxes(
         ));
     }
     let (mut wide_mean, mut wide_var) = (Scratch::zeros(z.len()), Scratch::zeros(z.len()));
-    let mut radius = radius;
+    let (mut radius, whole) = (radius, height.max(width)); // (a box of radius `whole`: the frame)
     while mean.iter().any(|m| m.is_nan()) {
-        radius = 2 * radius + 1;
+        if radius >= whole {
+            // every box held an observed pixel, so the moments overflowed float64
+            return Err(overflow());
+        }
+        radius = (2 * radius + 1).min(whole);
         local_moments(z, 1, height, width, radius, &mut wide_mean, &mut wide_var)?;
         for ((m, v), (wm, wv)) in mean
             .iter_mut()

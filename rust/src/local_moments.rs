@@ -35,6 +35,9 @@ pub fn local_moments(
     if size == 0 {
         return Ok(());
     }
+    // a box reaching max(height, width) pixels out covers the frame from every pixel: a wider
+    // one gives the same moments (and would size the running sums' buffers by the radius)
+    let radius = radius.min(height.max(width));
     let one_frame = |((m, v), f): ((&mut [f64], &mut [f64]), &[f64])| {
         let total = sum(f);
         if total.is_nan() {

@@ -51,6 +51,10 @@ fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -
         Some(0) => Err(PyValueError::new_err(
             "threads must be a positive integer or None",
         )),
+        // (kalmanfield._validation.MAX_THREADS: thousands of threads only queue)
+        Some(k) if k > 1024 => Err(PyValueError::new_err(format!(
+            "threads must lie in 1..=1024 (or None: all cores), got {k}"
+        ))),
         // a fresh pool per call: a pool thread that built a plan (faer's AVX-512 kernels) ran
         // the later filters 1.5–2× slower when pools were kept (measured)
         Some(k) => {
@@ -593,6 +597,13 @@ fn default_ar_order(n_y: usize, n_x: usize) -> usize {
     crate::scalar_row_filter::default_ar_order(n_y, n_x)
 }
 
+/// The row model of order n_x, 2 ≤ m ≤ 8, that `denoise` uses
+/// (`scalar_row_filter::model_ar_order`).
+#[pyfunction]
+fn model_ar_order(n_x: usize) -> usize {
+    crate::scalar_row_filter::model_ar_order(n_x)
+}
+
 /// `RowModels` by name.
 fn row_models_of(name: &str) -> PyResult<RowModels> {
     match name {
@@ -685,6 +696,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
     m.add_function(wrap_pyfunction!(haar_noise_var, m)?)?;
     m.add_function(wrap_pyfunction!(default_ar_order, m)?)?;
+    m.add_function(wrap_pyfunction!(model_ar_order, m)?)?;
     m.add_function(wrap_pyfunction!(axis_correlation_table, m)?)?;
     m.add_function(wrap_pyfunction!(adaptive_denoise_into, m)?)?;
     m.add("SIGNAL_FLOOR", crate::adaptive_denoise::SIGNAL_FLOOR)?;

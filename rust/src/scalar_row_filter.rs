@@ -1204,7 +1204,7 @@ fn drift_scale(band: &[Mat<f64>], innovation: &[Mat<f64>]) -> f64 {
 }
 
 /// The default order m of the block AR model along the row for multiplicities (n_y, n_x):
-/// 8 for n_y = 1, max(n_x, 2) otherwise. With one row in the state nothing absorbs the AR
+/// 8 for n_y = 1, [`model_ar_order`] = max(n_x, 2) (at most 8) otherwise. With one row in the state nothing absorbs the AR
 /// model's misfit to P_e (a smooth part plus a near-white one whose precision is not
 /// banded), and the loss grows as ρ → 1: (1,1) at ρ = 0.99, σ_x²/σ_θ² = 3 loses +10.7 %
 /// with m = 2, +4.7 % with m = 4, +1.4 % with m = 8 (48², exact MSEs), and m = 8 was never
@@ -1216,8 +1216,15 @@ pub fn default_ar_order(n_y: usize, n_x: usize) -> usize {
     if n_y == 1 {
         MAX_AR_ORDER
     } else {
-        n_x.max(2)
+        model_ar_order(n_x)
     }
+}
+
+/// m = n_x, at least 2 and at most [`MAX_AR_ORDER`] (a field of n_x > 8 gets the longest row
+/// model there is): the default for n_y ≥ 2, and `denoise`'s for every model (its rows are
+/// weighted, refitted at O(W m³), or its model identified from a real image, README).
+pub fn model_ar_order(n_x: usize) -> usize {
+    n_x.clamp(2, MAX_AR_ORDER)
 }
 
 /// Whether a sequence whose latest relative change is `change` (the one before: `previous`)

@@ -345,18 +345,21 @@ impl VectorRowFilter {
     fn mode_error_variances(&self, j: usize, smooth: bool, column: &mut [f64]) {
         let ratio = self.noise_var / self.mode_var[j];
         let height = column.len();
-        let mut history: Vec<ModeCovariance> = Vec::with_capacity(height);
-        for t in 1..=height {
-            let prev = history.last().map_or(self.dynamics.prior, |c| c.filtered);
-            history.push(self.dynamics.riccati_step(t, &prev, ratio));
-        }
         // h_tᵀ P h_t: the variance of the row that row t's readout reads
         let variance = |t: usize, p: &Small| {
             let h = self.dynamics.observation(t);
             h.dot(&(p * h))
         };
+        // the smoother reads every step back; the causal map needs the last one only
+        let mut history: Vec<ModeCovariance> = Vec::with_capacity(if smooth { height } else { 1 });
+        let mut prev = self.dynamics.prior;
         for t in 1..=height {
-            column[t - 1] = variance(t, &history[t - 1].filtered);
+            let step = self.dynamics.riccati_step(t, &prev, ratio);
+            column[t - 1] = variance(t, &step.filtered);
+            prev = step.filtered;
+            if smooth {
+                history.push(step);
+            }
         }
         if smooth {
             let mut smoothed = history[height - 1].filtered;

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .local_moments import local_moments
-from .row_filters import scalar_filter_plan, scalar_row_filter
+from .row_filters import model_ar_order, scalar_filter_plan, scalar_row_filter
 
 #: Floor of σ² in units of σ_θ², and the largest sample of the nominal variance's median
 #: (the Rust constants).
@@ -35,8 +35,8 @@ def adaptive_denoise(z, noise_var, rho, order, radius, smooth=True, row_models="
     weights = np.where(observed, signal / noise_var, 0.0)
     residual = np.where(observed, (np.where(observed, z, 0.0) - mu) / np.sqrt(signal), 0.0)
     nominal = 1.0 / _sample_median(weights.ravel())
-    # m = max(n_x, 2), not the filter's default (as the Rust kernel: every row is weighted)
-    m = max(order[1], 2)
+    # not the filter's default (as the Rust kernel: every row is weighted)
+    m = model_ar_order(order[1])
     plan = scalar_filter_plan(
         rho, order, 1.0, nominal, z.shape[1], z.shape[0], ar_order=m, modes="toeplitz"
     )

@@ -525,8 +525,13 @@ def observation_block(lower: np.ndarray, index: int, width: int, noise_var: floa
 
 
 def default_ar_order(n_y, n_x):
-    """Twin of the Rust ``default_ar_order``: m = 8 for n_y = 1, max(n_x, 2) otherwise."""
-    return 8 if n_y == 1 else max(n_x, 2)
+    """Twin of the Rust ``default_ar_order``: m = 8 for n_y = 1, model_ar_order(n_x) otherwise."""
+    return 8 if n_y == 1 else model_ar_order(n_x)
+
+
+def model_ar_order(n_x):
+    """Twin of the Rust ``model_ar_order``: m = n_x, at least 2, at most 8."""
+    return min(max(n_x, 2), 8)
 
 
 def scalar_filter_plan(

@@ -4,6 +4,9 @@ use super::motion::MAX_MOTION_ORDER;
 use crate::chi_squared::chi_squared_quantile;
 use crate::error::{FieldError, Result};
 
+/// Most index increments a sequence keeps (`memory`; 3–10 in use, SPEC §3.2).
+pub const MAX_MEMORY: usize = 256;
+
 /// Ranking of the final answer (SPEC §3.3 step 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Selection {
@@ -178,8 +181,12 @@ impl TrackerConfig {
                 self.confidence
             )));
         }
-        if self.memory == 0 {
-            return Err(invalid("memory must be at least 1".into()));
+        if self.memory == 0 || self.memory > MAX_MEMORY {
+            // each live sequence keeps `memory` increments per parameter
+            return Err(invalid(format!(
+                "memory must lie in 1..={MAX_MEMORY}, got {}",
+                self.memory
+            )));
         }
         check_positive(self.dt, "dt")?;
         if !(self.p_detect > 0.0 && self.p_detect < 1.0) {

@@ -128,12 +128,13 @@ fn bad_measurements_are_errors_and_change_nothing() {
 
 #[test]
 fn invalid_configurations_are_errors() {
-    let cases: [fn(&mut TrackerConfig); 8] = [
+    let cases: [fn(&mut TrackerConfig); 9] = [
         |c| c.confidence = 1.0,
         |c| c.order = vec![9, 1],
         |c| c.process_std = vec![0.1],
         |c| c.measurement_std = vec![0.0, 0.5],
         |c| c.memory = 0,
+        |c| c.memory = super::config::MAX_MEMORY + 1,
         |c| c.delete_llr = Some(f64::NAN),
         |c| c.p_detect = 1.0,
         |c| c.n_spatial = 3,
