@@ -145,6 +145,23 @@ def test_thread_counts_out_of_range_are_refused(threads):
         kf.denoise(z, 0.1, threads=1.5)
 
 
+def test_far_lags_correlate_by_zero_not_nan():
+    """(the polynomial of order 16 overflowed at 1e25: 0 · inf)"""
+    assert kf.ARFieldModel(0.5, 16).correlation([1e25, 1e300]).tolist() == [0.0, 0.0]
+
+
+def test_bad_counts_and_frame_numbers():
+    with pytest.raises(ValueError, match="below 2\\*\\*63"):
+        kf.segment(np.zeros((4, 4)), 0.5, min_area=2**64)
+    with pytest.raises(ValueError, match="overflow int64"):
+        kf.segment(np.zeros((2, 4, 4)), 0.5, frame_no=2**63 - 1)
+    assert kf.segment(np.zeros((4, 4)), 0.5, frame_no=2**63 - 1).empty
+    with pytest.raises(TypeError, match="noise"):
+        MODEL.sample((3, 3), noise=np.zeros((3, 3), complex))
+    with pytest.raises(TypeError, match="noise"):
+        MODEL.sample((3, 3), noise=np.zeros((3, 3), bool))
+
+
 def test_bad_lags():
     with pytest.raises(ValueError, match="lags"):
         MODEL.correlation([1, 2, 3])

@@ -214,8 +214,22 @@ def test_constant_lines_and_trends():
         (lambda: kf.yule_walker(_RNG.random((30, 30)), (0, 0)), ValueError, "no coefficient"),
         (lambda: kf.yule_walker(_RNG.random((30, 30)), (1,)), ValueError, "pair"),
         (lambda: kf.yule_walker(_RNG.random((30, 30)), (1.5, 1)), TypeError, "integers"),
+        (lambda: kf.yule_walker(_RNG.random((30, 30)), 1), TypeError, "pair"),
+        (lambda: kf.sample_correlation(np.arange(10.0), 2.0), TypeError, "max_lag"),
+        (lambda: kf.yule_walker(_EVERY_OTHER_COLUMN, (1, 1)), ValueError, "no pair of observed"),
+        (lambda: _FIT.predict(np.ones(5)), ValueError, "2-D"),
     ],
 )
 def test_correlation_and_yule_walker_bad_input(call, exc, match):
     with pytest.raises(exc, match=match):
         call()
+
+
+_EVERY_OTHER_COLUMN = np.where(np.arange(30) % 2, np.nan, _RNG.random((30, 30)))
+_FIT = kf.yule_walker(_RNG.random((30, 30)), (1, 2))
+
+
+def test_a_prediction_on_an_image_smaller_than_the_template_is_all_nan():
+    assert np.isnan(_FIT.predict(np.ones((1, 5)))).all()
+    assert np.isnan(_FIT.predict(np.ones((5, 2)))).all()
+    assert np.isfinite(_FIT.predict(np.ones((2, 3)))[1, 2])

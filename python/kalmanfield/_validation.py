@@ -37,8 +37,8 @@ def positive_int(value: Any, name: str) -> int:
     """An int ≥ 1 (numpy integers accepted, bools and floats refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be a positive integer, got {value!r}")
-    if int(value) < 1:
-        raise ValueError(f"{name} must be a positive integer, got {int(value)}")
+    if not 1 <= int(value) < 2**63:
+        raise ValueError(f"{name} must be a positive integer below 2**63, got {int(value)}")
     return int(value)
 
 
@@ -60,8 +60,8 @@ def nonnegative_int(value: Any, name: str) -> int:
     """An int ≥ 0 (numpy integers accepted, bools and floats refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be a non-negative integer, got {value!r}")
-    if int(value) < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {int(value)}")
+    if not 0 <= int(value) < 2**63:
+        raise ValueError(f"{name} must be a non-negative integer below 2**63, got {int(value)}")
     return int(value)
 
 
@@ -142,7 +142,7 @@ def allocate(shape: tuple[int, ...], dtype: np.dtype) -> np.ndarray:
 
 def finite_noise(noise: npt.ArrayLike, shape: tuple[int, ...], name: str = "noise") -> np.ndarray:
     """Caller-supplied white noise as a C-contiguous float64 array of exactly `shape`."""
-    arr = np.ascontiguousarray(noise, dtype=np.float64)
+    arr = real_array(noise, name)
     if arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._row_filter import images, positive_float, row_model
+from ._row_filter import images, positive_float, positive_int, row_model
 from ._validation import real_array, thread_count
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
@@ -69,6 +69,7 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
     NaN pixels are missing: left out of the mean and of every lagged product.
     """
     z = images(image, missing=True)
+    max_order = positive_int(max_order, "max_order")
     stack = z.reshape(-1, *z.shape[-2:])
     if stack.size == 0:
         raise ValueError("the stack has no frames: there is no model to fit")
@@ -209,7 +210,12 @@ def denoise(
     if nv is None:
         nv = estimate_noise_var(z)
         if not nv > 0:
-            raise ValueError("the estimated noise variance is 0: the image looks noise-free")
+            raise ValueError(
+                "the estimated noise variance is 0: the image looks noise-free (or its values"
+                " are so small that their squares underflow float64: rescale it)"
+            )
+        if not np.isfinite(nv):
+            raise ValueError("the estimated noise variance overflows float64: rescale the image")
     if adaptive:
         detail = DETAIL_MODEL if model is None else model
         return _adaptive(z, nv, detail, window, (smooth, row_models), threads)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numbers
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Literal, Union
 
 import numpy as np
@@ -68,7 +68,12 @@ def sample_correlation(
 
 
 def _max_lags(max_lag: LagLike, shape: tuple[int, ...]) -> tuple[int, ...]:
-    items = (max_lag,) * len(shape) if isinstance(max_lag, numbers.Integral) else tuple(max_lag)
+    if isinstance(max_lag, numbers.Integral):
+        items = (max_lag,) * len(shape)
+    elif isinstance(max_lag, Iterable) and not isinstance(max_lag, str):
+        items = tuple(max_lag)
+    else:
+        raise TypeError(f"max_lag must be an integer or one integer per axis, got {max_lag!r}")
     if len(items) != len(shape):
         raise ValueError(f"max_lag needs one entry per axis ({len(shape)}), got {len(items)}")
     lags = []

@@ -97,7 +97,7 @@ def segment(
     t = _threshold(threshold)
     area = positive_int(min_area, "min_area")
     conn = _connectivity(connectivity)
-    frame_no = _frame_no(frame_no)
+    frame_no = _frame_no(frame_no, image.shape[0] if image.ndim == 3 else 1)
     if image.ndim == 3:
         return _segment_stack(image, t, area, conn, frame_no or 0, labels)
     if image.size == 0:
@@ -158,11 +158,14 @@ def _connectivity(value: object) -> int:
     return int(value)
 
 
-def _frame_no(value: object) -> int | None:
+def _frame_no(value: object, frames: int) -> int | None:
+    """The first frame number; the `frames` numbers from it must fit the int64 column."""
     if value is None:
         return None
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         raise TypeError(f"frame_no must be an integer or None, got {value!r}")
+    if not -(2**63) <= int(value) <= 2**63 - max(frames, 1):
+        raise ValueError(f"the frame numbers from frame_no={int(value)} overflow int64")
     return int(value)
 
 

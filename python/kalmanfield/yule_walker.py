@@ -4,13 +4,13 @@ system (SPEC §1.6, [P 2.24–2.27])."""
 from __future__ import annotations
 
 import numbers
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import observed
+from ._validation import observed, real_array
 from .sample_correlation import sample_correlation
 
 
@@ -32,10 +32,14 @@ class YuleWalkerModel:
 
     def predict(self, image: npt.ArrayLike) -> np.ndarray:
         """One-step (quarter-plane) prediction x̂_kl = mean - Σ_{(i,j)≠0} α_ij (x - mean)_{k-i,l-j};
-        NaN where the template leaves the image."""
-        x = np.asarray(image, dtype=np.float64) - self.mean
+        NaN where the template leaves the image (everywhere on an image smaller than it)."""
+        x = real_array(image, "image") - self.mean
+        if x.ndim != 2:
+            raise ValueError(f"image must be 2-D, got {x.ndim}-D")
         n_y, n_x = self.alpha.shape[0] - 1, self.alpha.shape[1] - 1
         out = np.full(x.shape, np.nan)
+        if x.shape[0] <= n_y or x.shape[1] <= n_x:
+            return out
         core = np.zeros((x.shape[0] - n_y, x.shape[1] - n_x))
         for i in range(n_y + 1):
             for j in range(n_x + 1):
@@ -63,6 +67,10 @@ def yule_walker(
     if values.shape[0] <= 2 * n_y or values.shape[1] <= 2 * n_x:
         raise ValueError(f"an image of shape {values.shape} is too small for order {(n_y, n_x)}")
     correlation = sample_correlation(values, (n_y, n_x))
+    if not np.isfinite(correlation).all():
+        raise ValueError(
+            f"some lags of the order-{(n_y, n_x)} template have no pair of observed pixels"
+        )
     with np.errstate(over="ignore"):
         variance = float(np.var(values[valid]))
     if not np.isfinite(variance):
@@ -100,6 +108,8 @@ def yule_walker_from_covariance(covariance: np.ndarray, mean: float = 0.0) -> Yu
 
 
 def _template_order(order: tuple[int, int] | Sequence[int]) -> tuple[int, int]:
+    if not isinstance(order, Iterable) or isinstance(order, str):
+        raise TypeError(f"order must be a pair (n_y, n_x) of integers, got {order!r}")
     items = tuple(order)
     if len(items) != 2:
         raise ValueError(f"order must be a pair (n_y, n_x), got {order!r}")

@@ -89,8 +89,13 @@ impl AxisModel {
     /// Normalised correlation R(r) at a real lag r (R(0) = 1, even in r)  [P 2.9, 2.10].
     pub fn correlation(&self, lag: f64) -> f64 {
         let r = lag.abs();
+        let decay = self.rho.powf(r);
+        if decay == 0.0 {
+            // (the polynomial of a far lag may overflow: 0 · inf would be NaN)
+            return 0.0;
+        }
         let p = self.poly.iter().rev().fold(0.0, |acc, c| acc * r + c);
-        self.rho.powf(r) * p
+        decay * p
     }
 }
 
