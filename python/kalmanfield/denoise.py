@@ -24,7 +24,8 @@ DETAIL_MODEL = ARFieldModel([0.7, 0.7], [1, 1])
 
 def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.ndarray]:
     """(mean, variance) of every pixel's window × window box (odd `window`; the box is cut
-    at the borders), for an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
+    at the borders, so any window ≥ 2 max(H, W) + 1 gives the whole frame's moments), for
+    an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
     NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
     box holds none."""
     z = images(image, missing=True)
