@@ -1204,9 +1204,9 @@ fn drift_scale(band: &[Mat<f64>], innovation: &[Mat<f64>]) -> f64 {
 }
 
 /// The default order m of the block AR model along the row for multiplicities (n_y, n_x):
-/// 8 for n_y = 1, [`model_ar_order`] = max(n_x, 2) (at most 8) otherwise. With one row in the state nothing absorbs the AR
-/// model's misfit to P_e (a smooth part plus a near-white one whose precision is not
-/// banded), and the loss grows as ρ → 1: (1,1) at ρ = 0.99, σ_x²/σ_θ² = 3 loses +10.7 %
+/// 8 for n_y = 1, [`model_ar_order`] = max(n_x, 2) (at most 8) otherwise. With one row in
+/// the state nothing absorbs the AR model's misfit to P_e (a smooth part plus a near-white
+/// one whose precision is not banded), and the loss grows as ρ → 1: (1,1) at ρ = 0.99, σ_x²/σ_θ² = 3 loses +10.7 %
 /// with m = 2, +4.7 % with m = 4, +1.4 % with m = 8 (48², exact MSEs), and m = 8 was never
 /// worse over ρ ≤ 0.999, σ_θ² ≥ 1e-10; the band b = m stays narrow (1.6× the time of m = 2,
 /// still > 100 Mpixel/s smoothed). For n_y ≥ 2 the older rows of the state absorb most of

@@ -568,3 +568,47 @@ pub fn row_axes(model: &FieldModel) -> Result<(&AxisModel, &AxisModel)> {
     }
     Ok((&axes[0], &axes[1]))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The 4 × 4 step of [`RowDynamics::riccati_step`] written out for a one-row state.
+    fn matrix_step(d: &RowDynamics, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
+        let predicted = if t == 1 {
+            d.prior
+        } else {
+            d.transition * previous * d.transition.transpose() + d.innovation
+        };
+        let h = d.observation(t);
+        let c = predicted * h;
+        let filtered = predicted - (c * c.transpose()) / (h.dot(&c) + ratio);
+        ModeCovariance {
+            predicted,
+            filtered,
+        }
+    }
+
+    #[test]
+    fn the_one_row_riccati_step_is_the_matrix_one_and_keeps_its_digits_at_high_snr() {
+        let axis = AxisModel::new(0.95, 1).unwrap();
+        for dynamics in [
+            RowDynamics::new(&axis),
+            RowDynamics::new(&axis).whitened().unwrap(),
+        ] {
+            let (mut scalar, mut matrix) = (dynamics.prior, dynamics.prior);
+            for t in 1..=6 {
+                let s = dynamics.riccati_step(t, &scalar, 0.3);
+                let m = matrix_step(&dynamics, t, &matrix, 0.3);
+                assert!((s.predicted - m.predicted).abs().max() < 1e-15);
+                assert!((s.filtered - m.filtered).abs().max() < 1e-15);
+                assert_eq!(s.filtered.abs().sum(), s.filtered[(0, 0)].abs());
+                (scalar, matrix) = (s.filtered, m.filtered);
+            }
+            // r ≪ p: the filtered variance is r (1 − r/p + …), where p − p²/(p + r) is 0
+            let step = dynamics.riccati_step(3, &scalar, 1e-30);
+            let want = 1e-30 / (1.0 + 1e-30 / step.predicted[(0, 0)]);
+            assert!((step.filtered[(0, 0)] / want - 1.0).abs() < 1e-14);
+        }
+    }
+}
