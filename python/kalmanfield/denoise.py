@@ -76,10 +76,9 @@ def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldM
         raise ValueError("the stack has no frames: there is no model to fit")
     if np.isnan(stack).all():
         raise ValueError("every pixel is NaN (missing): there is no model to fit")
-    mean = float(np.mean(stack))
-    missing = np.isnan(mean)  # (NaN pixels; the plain mean is the cheaper pass)
-    mean_of = np.nanmean if missing else np.mean
-    mean = float(mean_of(stack)) if missing else mean
+    mean, mean_of = float(np.mean(stack)), np.mean  # (the cheaper pass; NaN if any is missing)
+    if np.isnan(mean):
+        mean, mean_of = float(np.nanmean(stack)), np.nanmean
     centred = np.ascontiguousarray(stack - mean)
     peak = np.nanmax(np.abs(centred))  # a NumPy float: peak² of 1e300 is inf, not an error
     if not peak > 0:

@@ -451,6 +451,11 @@ impl RowDynamics {
         if self.order == 1 {
             return self.scalar_riccati_step(t, previous[(0, 0)], ratio);
         }
+        self.matrix_riccati_step(t, previous, ratio)
+    }
+
+    /// [`Self::riccati_step`] on the 4 × 4 matrices, for any state order.
+    fn matrix_riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
         let predicted = if t == 1 {
             self.prior
         } else if t <= self.order {
@@ -573,22 +578,6 @@ pub fn row_axes(model: &FieldModel) -> Result<(&AxisModel, &AxisModel)> {
 mod tests {
     use super::*;
 
-    /// The 4 × 4 step of [`RowDynamics::riccati_step`] written out for a one-row state.
-    fn matrix_step(d: &RowDynamics, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
-        let predicted = if t == 1 {
-            d.prior
-        } else {
-            d.transition * previous * d.transition.transpose() + d.innovation
-        };
-        let h = d.observation(t);
-        let c = predicted * h;
-        let filtered = predicted - (c * c.transpose()) / (h.dot(&c) + ratio);
-        ModeCovariance {
-            predicted,
-            filtered,
-        }
-    }
-
     #[test]
     fn the_one_row_riccati_step_is_the_matrix_one_and_keeps_its_digits_at_high_snr() {
         let axis = AxisModel::new(0.95, 1).unwrap();
@@ -599,7 +588,7 @@ mod tests {
             let (mut scalar, mut matrix) = (dynamics.prior, dynamics.prior);
             for t in 1..=6 {
                 let s = dynamics.riccati_step(t, &scalar, 0.3);
-                let m = matrix_step(&dynamics, t, &matrix, 0.3);
+                let m = dynamics.matrix_riccati_step(t, &matrix, 0.3);
                 assert!((s.predicted - m.predicted).abs().max() < 1e-15);
                 assert!((s.filtered - m.filtered).abs().max() < 1e-15);
                 assert_eq!(s.filtered.abs().sum(), s.filtered[(0, 0)].abs());
