@@ -41,7 +41,9 @@ def axis_correlation(rho: float, n: int, lags: np.ndarray) -> np.ndarray:
         total = total + const * rising * rho ** (2 * (n - ell - 1)) / (1 - rho**2) ** (
             2 * n - ell - 1
         )
-    return b2 * rho**k * total
+    decay = rho**k
+    with np.errstate(invalid="ignore"):  # a far lag's polynomial may overflow: 0 · inf
+        return np.where(decay == 0.0, 0.0, b2 * decay * total)
 
 
 def correlation(rho: Sequence[float], order: Sequence[int], sigma: float, lags) -> np.ndarray:
