@@ -190,3 +190,106 @@ def test_core_rejects_mismatched_output_without_panicking():
         MODEL._core.sample_into(np.empty((3, 4)), 0, np.zeros((2, 2)), None)
     with pytest.raises(ValueError):
         MODEL._core.stream_into(np.empty(4), [], 3, 0, None, None)
+
+
+# ------------------------------------------------------- values at the edges of float64's range
+# (a fuzz sweep found NaN/inf outputs for finite inputs here; each is now a clear ValueError
+# or a finite answer)
+MAX_PIXEL = 2.0**1000
+ROW_FILTERS = [
+    lambda m: kf.ScalarRowFilter(m, 0.5, 16),
+    lambda m: kf.ScalarRowFilter(m, 0.5, 16, smooth=True),
+    lambda m: kf.VectorRowFilter(m, 0.5, 16),
+    lambda m: kf.VectorRowFilter(m, 0.5, 16, smooth=True),
+]
+
+
+@pytest.mark.parametrize("make", ROW_FILTERS)
+def test_row_filters_take_pixels_up_to_2_to_the_1000_and_refuse_larger_ones(make):
+    row_filter = make(kf.ARFieldModel([0.9, 0.8], [2, 2]))
+    z = np.random.default_rng(3).standard_normal((12, 16))
+    # at the limit: finite, and (the filter is linear, 2^k scales exactly) the scaled estimate
+    top = z / np.abs(z).max() * MAX_PIXEL
+    np.testing.assert_array_equal(
+        row_filter.filter(top), row_filter.filter(z / np.abs(z).max()) * MAX_PIXEL
+    )
+    for at, value in [((0, 3), 2.0**1001), ((9, 5), -1.7e308)]:
+        bad = z.copy()
+        bad[at] = value
+        with pytest.raises(ValueError, match="out-of-range"):
+            row_filter.filter(bad)
+
+
+def test_out_of_range_pixels_are_refused_with_missing_pixels_and_by_the_mean():
+    model = kf.ARFieldModel([0.9, 0.8], [1, 2])
+    z = np.random.default_rng(4).standard_normal((10, 16))
+    z[2, 3] = np.nan
+    z[6, 7] = 1e302
+    with pytest.raises(ValueError, match="beyond"):
+        kf.ScalarRowFilter(model, 0.5, 16).filter(z)
+    z = np.random.default_rng(4).standard_normal((10, 16)) + 1.5e308
+    with np.errstate(over="ignore"), pytest.raises(ValueError, match="out-of-range"):
+        kf.ScalarRowFilter(model, 0.5, 16, mean=-1.5e308).filter(z)
+
+
+def test_noise_ratios_outside_float64s_normal_range_are_refused():
+    model = kf.ARFieldModel([0.9, 0.8], [1, 1])
+    tiny = np.finfo(float).tiny
+    z = np.random.default_rng(5).standard_normal((6, 8))
+    for cls in (kf.ScalarRowFilter, kf.VectorRowFilter):
+        # (a subnormal ratio gave a NaN image)
+        with pytest.raises(ValueError, match="normal range"):
+            cls(model, 1e-320, 8)
+        with pytest.raises(ValueError, match="normal range"):
+            cls(kf.ARFieldModel([0.9, 0.8], [1, 1], sigma=1e-160), 1e300, 8)
+        assert np.isfinite(cls(model, tiny, 8).filter(z)).all()
+    # per-pixel: (it was refused as "weights must be finite", weights the user never gave)
+    with pytest.raises(ValueError, match="at least"):
+        kf.ScalarRowFilter(model, 1.0, 8).filter(z, noise_var=np.full(z.shape, 1e-320))
+
+
+def test_overflowing_estimates_are_refused_not_inf():
+    z = np.random.default_rng(6).standard_normal((40, 32))
+    with pytest.raises(ValueError, match="overflows"):
+        kf.estimate_noise_var(z * 1e300)
+    blob = np.zeros((40, 32))
+    blob[5:25, 5:25] = 1e306
+    with pytest.raises(ValueError, match="moments overflow"):
+        kf.segment(blob, 1.0)
+    with pytest.raises(ValueError, match="moments overflow"):
+        kf.segment(np.stack([blob, blob]), 1.0)
+    assert np.isfinite(kf.segment(blob * 1e-10, 1.0)[["x", "y", "amplitude"]]).all().all()
+
+
+def test_float32_fields_refuse_a_sigma_beyond_float32():
+    # (σ = 1e39 gave inf samples)
+    model = kf.ARFieldModel([0.9, 0.8], [1, 1], sigma=1e39)
+    with pytest.raises(ValueError, match="float32"):
+        model.sample((4, 4), seed=1, dtype=np.float32)
+    with pytest.raises(ValueError, match="float32"):
+        kf.sample_product_field(model, (4, 4), seed=1, dtype=np.float32)
+    with pytest.raises(ValueError, match="float32"):
+        kf.FieldStream(model, (4,), seed=1, dtype=np.float32)
+    with pytest.raises(ValueError, match="float32"):
+        kf.ARFieldModel(0.5, 1, sigma=1e-35).sample((4,), seed=1, dtype=np.float32)
+    assert np.isfinite(model.sample((4, 4), seed=1)).all()
+
+
+def test_tracker_measurements_beyond_1e150_are_refused():
+    # (1e200 gave NaN tracks)
+    tracker = kf.BranchingTracker(2)
+    with pytest.raises(ValueError, match="within"):
+        tracker.update([[1e200, 0.0]])
+    assert tracker.frame == 0  # nothing changed
+    tracker.update([[1e150, 0.0]])
+
+
+def test_link_with_frame_numbers_spanning_int64():
+    # (the int64 span wrapped round to 0: ZeroDivisionError)
+    import pandas as pd
+
+    det = pd.DataFrame({"frame": [-(2**63), 2**63 - 1], "x": [0.0, 1.0], "y": [0.0, 1.0]})
+    with pytest.raises(ValueError, match="renumber"):
+        kf.link(det, measurement_std=0.5, process_std=0.1)
+    wide = pd.DataFrame({"frame": [0, 0, 1], "x": [-1e150, 1e150, 0.0], "y": [-1e150, 1e150, 0.0]})
+    assert (kf.link(wide, measurement_std=0.5, process_std=0.1).particle == -1).all()

@@ -10,6 +10,9 @@ import numpy.typing as npt
 from ._validation import positive_int, real_array, real_number, thread_count
 from .ar_field_model import ARFieldModel
 
+#: smallest σ_θ²/σ_x² the row filters accept: float64's smallest normal number
+MIN_RATIO = float(np.finfo(np.float64).tiny)
+
 
 def row_model(model: object) -> ARFieldModel:
     """A 2-axis ARFieldModel (axis 0 = rows) with n_y ≤ 4."""
@@ -27,12 +30,14 @@ def unit_scale(model: ARFieldModel, noise_var: float) -> tuple[ARFieldModel, flo
     estimates are linear and their gains depend on σ_θ²/σ_x² alone (variances scale by
     σ_x²), so working in units of σ_x keeps their products of variances inside float64
     whatever the images' scale (σ_x of 1e±100 overflowed them). ValueError when the ratio
-    itself is out of float64's range."""
+    itself or its reciprocal is out of float64's normal range (a subnormal ratio, 1e-320,
+    gave NaN images)."""
     sigma = model.sigma
     ratio = noise_var / sigma / sigma
-    if not 0 < ratio < np.inf:
+    if not MIN_RATIO <= ratio <= 1.0 / MIN_RATIO:
         raise ValueError(
-            f"noise_var / sigma² = {noise_var:g} / {sigma:g}² is out of float64's range"
+            f"noise_var / sigma² = {noise_var:g} / {sigma:g}² is out of float64's normal "
+            f"range [{MIN_RATIO:g}, {1.0 / MIN_RATIO:g}]"
         )
     return (model if sigma == 1.0 else ARFieldModel(model.rho, model.order)), ratio
 

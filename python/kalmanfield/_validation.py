@@ -110,11 +110,22 @@ def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, .
     return dims
 
 
-def float_dtype(dtype: npt.DTypeLike) -> np.dtype:
-    """float32 or float64."""
+#: σ a float32 field may have: its largest values (tens of σ for product fields) and its
+#: smallest ones stay far inside float32's range (σ = 1e39 gave inf)
+FLOAT32_SIGMA = (2.0**-100, 2.0**100)
+
+
+def float_dtype(dtype: npt.DTypeLike, sigma: float | None = None) -> np.dtype:
+    """float32 or float64; ValueError for float32 when `sigma` (the field's σ, if given) lies
+    outside :data:`FLOAT32_SIGMA`."""
     dt = np.dtype(dtype)
     if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise TypeError(f"dtype must be float32 or float64, got {dt}")
+    low, high = FLOAT32_SIGMA
+    if dt == np.float32 and sigma is not None and not low <= sigma <= high:
+        raise ValueError(
+            f"a float32 field needs sigma within [2**-100, 2**100], got {sigma:g}: use float64"
+        )
     return dt
 
 

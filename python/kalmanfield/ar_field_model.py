@@ -190,7 +190,7 @@ class ARFieldModel:
         threads : number of threads (None: all cores).
         """
         dims = grid_shape(shape, self.ndim)
-        dt = float_dtype(dtype)
+        dt = float_dtype(dtype, self.sigma)
         given = None if noise is None else finite_noise(noise, dims)
         out = allocate(dims, dt)
         seed_value = 0 if given is not None else resolve_seed(seed)

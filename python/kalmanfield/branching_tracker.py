@@ -40,6 +40,10 @@ from ._validation import nonnegative_int, positive_int, probability, real_array,
 
 __all__ = ["BranchingTracker"]
 
+#: the largest |measurement| accepted: the filters square differences of measurements, and
+#: beyond ~1e154 those squares leave float64 (1e200 gave NaN tracks)
+MAX_MEASUREMENT = 1e150
+
 _STATS_COLUMNS = ["measurements", "live_before", "children", "live", "seeds"]
 
 
@@ -242,8 +246,8 @@ class BranchingTracker:
         ``measurements``: an (m, k) array-like of parameter vectors (any detector's output; an
         empty frame is ``np.empty((0, k))`` or ``[]``), or a DataFrame holding the columns
         :attr:`names`. ``time``: the frame's time (default: previous time + ``dt``; must
-        increase). NaN/inf measurements, a wrong column count or a non-increasing time raise
-        ValueError before anything changes.
+        increase). NaN/inf measurements, measurements beyond ±``MAX_MEASUREMENT`` (1e150), a
+        wrong column count or a non-increasing time raise ValueError before anything changes.
         """
         k = self.n_params
         if isinstance(measurements, pd.DataFrame):
@@ -261,6 +265,11 @@ class BranchingTracker:
             raise ValueError(f"measurements must be an (m, {k}) array, got shape {z.shape}")
         if not np.isfinite(z).all():
             raise ValueError("measurements must be finite (no NaN or inf); drop such rows first")
+        if z.size and np.abs(z).max() > MAX_MEASUREMENT:
+            raise ValueError(
+                f"measurements must lie within ±{MAX_MEASUREMENT:g} (the filters square them); "
+                "rescale or re-centre the parameters"
+            )
         if time is not None:
             time = real_number(time, "time")
         self._core.update(z, time)

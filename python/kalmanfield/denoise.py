@@ -49,13 +49,16 @@ def estimate_noise_var(image: npt.ArrayLike) -> float:
     from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
     σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²)),
     pooled over the frames of a stack. Blocks with a NaN (missing) or infinite pixel are left
-    out.
+    out. ValueError when σ̂² overflows float64 (σ̂ ≳ 1e154).
     Rust kernel (``rust/src/noise_level.rs``; NumPy twin ``reference.noise_level``)."""
     z = real_array(image, "image")
     if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2 or z.size == 0:
         raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
     stack = np.ascontiguousarray(z.reshape(-1, *z.shape[-2:]))
-    return _core.haar_noise_var(stack)
+    variance = _core.haar_noise_var(stack)
+    if not np.isfinite(variance):
+        raise ValueError("the estimated noise variance overflows float64: rescale the image")
+    return variance
 
 
 def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldModel, float, float]:
@@ -214,8 +217,6 @@ def denoise(
                 "the estimated noise variance is 0: the image looks noise-free (or its values"
                 " are so small that their squares underflow float64: rescale it)"
             )
-        if not np.isfinite(nv):
-            raise ValueError("the estimated noise variance overflows float64: rescale the image")
     if adaptive:
         detail = DETAIL_MODEL if model is None else model
         return _adaptive(z, nv, detail, window, (smooth, row_models), threads)

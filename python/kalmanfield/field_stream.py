@@ -48,7 +48,7 @@ class FieldStream:
             raise ValueError("a stream needs a model with a time axis (axis 0) and spatial axes")
         self.model = model
         self.frame_shape = grid_shape(frame_shape, model.ndim - 1, "frame_shape")
-        self.dtype = float_dtype(dtype)
+        self.dtype = float_dtype(dtype, model.sigma)
         self.seed = resolve_seed(seed)
         self.threads = thread_count(threads)
         self.time = 0

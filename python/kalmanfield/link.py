@@ -67,7 +67,8 @@ def link(
     ):
         raise ValueError("the frame column must hold integer frame numbers")
     frame_numbers = frame_numbers.astype(np.int64)
-    span = int(frame_numbers.max() - frame_numbers.min()) + 1 if len(df) else 0
+    # Python ints: the int64 difference wraps round for frame numbers spanning int64
+    span = int(frame_numbers.max()) - int(frame_numbers.min()) + 1 if len(df) else 0
     if span > MAX_EMPTY_FRAMES + 100 * len(df):
         raise ValueError(
             f"the frame numbers span {span} frames for {len(df)} detections (every frame in "
@@ -117,7 +118,10 @@ def link(
 def table_clutter_density(values: np.ndarray, frame_numbers: np.ndarray) -> float:
     """Detections per frame (at least 1) per unit of the bounding box of `values` (n, k)
     (each side at least 1): the clutter density estimate of :func:`link`."""
-    n_frames = int(frame_numbers.max() - frame_numbers.min()) + 1
+    n_frames = int(frame_numbers.max()) - int(frame_numbers.min()) + 1
     rate = max(len(values) / n_frames, 1.0)
-    spans = np.maximum(values.max(axis=0) - values.min(axis=0), 1.0)
-    return float(rate / np.prod(spans))
+    with np.errstate(over="ignore"):  # a box beyond float64 is as good as an infinite one
+        spans = np.maximum(values.max(axis=0) - values.min(axis=0), 1.0)
+        density = rate / np.prod(spans)
+    # kept positive (the tracker needs one) however wide the box
+    return float(max(density, np.finfo(float).tiny))

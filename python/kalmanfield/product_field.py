@@ -38,7 +38,7 @@ def sample_product_field(
     if not isinstance(model, ARFieldModel):
         raise TypeError(f"model must be an ARFieldModel, got {type(model).__name__}")
     dims = grid_shape(shape, model.ndim)
-    dt = float_dtype(dtype)
+    dt = float_dtype(dtype, model.sigma)
     given = None
     if noise is not None:
         if len(noise) != model.ndim:

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._row_filter import RowFilter, images
+from ._row_filter import MIN_RATIO, RowFilter, images
 from ._validation import check_memory, positive_int, real_array
 from .ar_field_model import ARFieldModel
 from .wiener_bound import wiener_error_map
@@ -208,7 +208,13 @@ class ScalarRowFilter(RowFilter):
         if np.isnan(var).any() or not (var > 0).all():
             raise ValueError("noise_var must be > 0 at every pixel (inf marks a missing one)")
         with np.errstate(divide="ignore", over="ignore", under="ignore"):
-            return np.ascontiguousarray(1.0 / (var / sigma / sigma))
+            ratio = var / sigma / sigma
+            if ratio.min() < MIN_RATIO:
+                raise ValueError(
+                    f"noise_var / sigma² must be at least {MIN_RATIO:g} at every pixel "
+                    f"(float64's normal range), got {ratio.min():g}"
+                )
+            return np.ascontiguousarray(1.0 / ratio)
 
     def error_variance(self, height: int, noise_var: npt.ArrayLike | None = None) -> np.ndarray:
         """(height, W) map of the per-pixel error variance of this filter's estimate.

@@ -84,7 +84,8 @@ def segment(
         are; bool
         becomes uint8; other integer types (and float16, longdouble) are converted to float64
         (integers beyond 2⁵³ are rounded). Complex, object and string arrays are refused
-        (TypeError); NaN or infinite pixels are refused (ValueError).
+        (TypeError); NaN or infinite pixels, and pixels so large (≳ 1e300) that the segment
+        moments overflow, are refused (ValueError).
     threshold : finite real number. min_area : positive int. connectivity : 4 or 8.
     labels : also return the int32 label image (same shape as `frame`, 0 = background).
     frame_no : if given, a first column ``frame`` holding it (the trackpy convention).
@@ -104,6 +105,7 @@ def segment(
         columns, label_image = _empty_columns(), np.zeros(image.shape, dtype=np.int32)
     else:
         columns, label_image = _core.segment(image, t, area, conn)
+    _check_moments(columns)
     table = _table(columns, frame_no)
     return (table, label_image) if labels else table
 
@@ -136,6 +138,7 @@ def _segment_stack(
         label_image = np.zeros(stack.shape, dtype=np.int32)
     else:
         columns, label_image = _core.segment_stack(stack, t, area, conn)
+        _check_moments(columns)
         frames = columns["frame"]
     data = {"frame": frames + first, **{name: columns[name] for name in COLUMNS}}
     table = pd.DataFrame(data, copy=False)
@@ -167,6 +170,16 @@ def _frame_no(value: object, frames: int) -> int | None:
     if not -(2**63) <= int(value) <= 2**63 - max(frames, 1):
         raise ValueError(f"the frame numbers from frame_no={int(value)} overflow int64")
     return int(value)
+
+
+def _check_moments(columns: dict[str, np.ndarray]) -> None:
+    """ValueError when a segment's moments left float64 (their sums of pixel weights times
+    coordinates overflow for pixels ≳ 1e300): one check per segment, not per pixel."""
+    moments = (columns[name] for name in COLUMNS if name not in _INT_COLUMNS)
+    if not all(np.isfinite(m).all() for m in moments):
+        raise ValueError(
+            "a segment's moments overflow float64 (pixel values ≳ 1e300): rescale the frame"
+        )
 
 
 def _empty_columns() -> dict[str, np.ndarray]:

@@ -8,7 +8,7 @@
 //! columns, then column by column over the tail of the row. Every output is summed in the
 //! same order either way, so the bits do not depend on the block length.
 
-use crate::vector_row_filter::Small;
+use crate::vector_row_filter::{pixel_in_range, Small};
 use std::array::from_fn;
 use std::ops::Range;
 
@@ -182,8 +182,9 @@ pub(crate) fn prefetch(row: &[f64]) {
 }
 
 /// Prediction and innovation: state_ℓ ← S state_ℓ, gain_in_ℓ = ((z_ℓ − state_ℓ[0]) r_ℓ, 0, …)
-/// (the innovation enters through state row 0 only). False when a pixel of the row is NaN
-/// or infinite (with nominal precisions only, see `PixelPrecision::checks`).
+/// (the innovation enters through state row 0 only). False when a pixel of the row is NaN,
+/// infinite or beyond ±2^1000 (`pixel_in_range`; with nominal precisions only, see
+/// `PixelPrecision::checks`).
 #[inline(always)]
 pub(crate) fn predict<const N: usize, const K: usize, P: PixelPrecision>(
     s: &Small,
@@ -231,7 +232,7 @@ fn predict_block<const N: usize, const K: usize>(
     });
     if precision.checks() {
         for z in row {
-            *finite &= z.is_finite();
+            *finite &= pixel_in_range(*z);
         }
     }
 }

@@ -33,7 +33,9 @@ use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
-use crate::vector_row_filter::{all_finite, check_sizes, RowDynamics, Small};
+use crate::vector_row_filter::{
+    all_in_range, check_sizes, out_of_range_pixels, pixel_in_range, RowDynamics, Small,
+};
 use faer::Mat;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -768,16 +770,18 @@ impl ScalarRowFilter {
     }
 
     /// The weighted rows' values (checked row by row as the filter reaches them, while they
-    /// are in cache): weights finite and ≥ 0, pixels finite where the weight is > 0.
+    /// are in cache): weights finite and ≥ 0, pixels in range ([`pixel_in_range`]) where the
+    /// weight is > 0.
     fn check_weighted_row(row: &[f64], weights: &[f64]) -> Result<()> {
         Self::check_weights(weights)?;
-        let observed_finite = row
+        let observed_in_range = row
             .iter()
             .zip(weights)
-            .fold(true, |ok, (v, w)| ok & (v.is_finite() | (*w == 0.0)));
-        if !observed_finite {
+            .fold(true, |ok, (v, w)| ok & (pixel_in_range(*v) | (*w == 0.0)));
+        if !observed_in_range {
             return Err(FieldError::NonFinite(
-                "a pixel with a finite noise variance is NaN or infinite".into(),
+                "a pixel with a finite noise variance is NaN, infinite or beyond ±2^1000 ≈ 1e301"
+                    .into(),
             ));
         }
         Ok(())
@@ -806,7 +810,7 @@ impl ScalarRowFilter {
     /// Prediction and innovation in one pass over the columns (`row_columns::predict`):
     /// state_ℓ ← S state_ℓ, gain_in_ℓ = ((z_ℓ − state_ℓ[0]) r_ℓ, 0, …), r_ℓ = 1/σ²_θ,ℓ
     /// (`weights`; None: 1/σ_θ² everywhere). False when `weights` is None and a pixel of the
-    /// row is NaN or infinite.
+    /// row is NaN, infinite or beyond ±2^1000 (`pixel_in_range`).
     #[inline(always)]
     fn predict(
         &self,
@@ -989,14 +993,8 @@ impl ScalarRowFilter {
             let row = &z[row_of(t)];
             let out_row = &mut out[row_of(t)];
             let row_weights = weights.map(|r| &r[row_of(t)]);
-            let non_finite = || {
-                FieldError::NonFinite(
-                    "the images hold NaN or infinite pixels (the row filters need every pixel)"
-                        .into(),
-                )
-            };
-            if t <= n && weights.is_none() && !all_finite(row) {
-                return Err(non_finite());
+            if t <= n && weights.is_none() && !all_in_range(row) {
+                return Err(out_of_range_pixels());
             }
             // 1/σ_θ² per pixel; a pixel of weight 0 is ignored (its value may be NaN)
             let weight = |ell: usize| row_weights.map_or(self.nominal().0, |r| r[ell]);
@@ -1015,7 +1013,7 @@ impl ScalarRowFilter {
                 self.readout(&state, observed(t), out_row);
             } else {
                 if !self.predict(&mut state, row, &mut gain_in, row_weights) {
-                    return Err(non_finite());
+                    return Err(out_of_range_pixels());
                 }
                 if t < height {
                     columns::prefetch(&z[t * w..(t + 1) * w]);
@@ -1440,18 +1438,27 @@ mod tests {
     }
 
     #[test]
-    fn a_non_finite_pixel_in_any_row_is_an_error() {
+    fn a_non_finite_or_out_of_range_pixel_in_any_row_is_an_error() {
         let model = FieldModel::new(&[0.9, 0.8], &[2, 2], 1.0).unwrap();
         let (h, w) = (12usize, 16usize);
         let filter = ScalarRowFilter::new(&model, 0.5, w, None, ModeSet::Exact).unwrap();
         let z: Vec<f64> = (0..h * w).map(|i| (i as f64 * 0.3).sin()).collect();
         let mut out = vec![0.0; h * w];
         filter.filter_image(&z, None, &mut out, h, true).unwrap();
-        // a start row (1..=n) and a predicted row, NaN and infinite
+        // the largest pixel taken, in a start row and in a predicted row
+        for at in [3usize, 9 * w + 5] {
+            let mut z = z.clone();
+            z[at] = -crate::vector_row_filter::MAX_PIXEL;
+            filter.filter_image(&z, None, &mut out, h, true).unwrap();
+            assert!(out.iter().all(|v| v.is_finite()), "{at}");
+        }
+        // a start row (1..=n) and a predicted row: NaN, infinite, beyond 2^1000
         for (at, bad) in [
             (3usize, f64::NAN),
             (9 * w + 5, f64::INFINITY),
             (11 * w, f64::NAN),
+            (2, 2f64.powi(1001)),
+            (7 * w + 1, -f64::MAX),
         ] {
             let mut z = z.clone();
             z[at] = bad;

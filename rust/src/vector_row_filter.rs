@@ -526,16 +526,33 @@ fn max_change(old: &[[f64; MAX_ROW_ORDER]], new: &[[f64; MAX_ROW_ORDER]]) -> f64
         .fold(0.0, f64::max)
 }
 
-/// Input and output hold `expected` values and every pixel is finite (the row filters need
-/// every observation).
+/// Input and output hold `expected` values and every pixel is in range, [`pixel_in_range`]
+/// (the row filters need every observation).
 pub(crate) fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
     check_sizes(z, out, expected)?;
-    if !all_finite(z) {
-        return Err(FieldError::NonFinite(
-            "the images hold NaN or infinite pixels (the row filters need every pixel)".into(),
-        ));
+    if !all_in_range(z) {
+        return Err(out_of_range_pixels());
     }
     Ok(())
+}
+
+/// The largest |pixel| the row filters take, 2¹⁰⁰⁰ ≈ 1.07e301: their sums of a few gains
+/// times pixels stay inside float64 (pixels near 1.8e308 turned the estimates to inf/NaN).
+pub const MAX_PIXEL: f64 = 1.0715086071862673e301;
+
+/// |v| ≤ [`MAX_PIXEL`]: false for NaN and ±inf too, at the cost of `is_finite`.
+#[inline(always)]
+pub(crate) fn pixel_in_range(v: f64) -> bool {
+    v.abs() <= MAX_PIXEL
+}
+
+/// The error for a NaN, infinite or out-of-range pixel.
+pub(crate) fn out_of_range_pixels() -> FieldError {
+    FieldError::NonFinite(
+        "the images hold NaN, infinite or out-of-range pixels (the row filters need every \
+         pixel, with |z − mean| ≤ 2^1000 ≈ 1e301)"
+            .into(),
+    )
 }
 
 /// Input and output hold `expected` values.
@@ -549,11 +566,11 @@ pub(crate) fn check_sizes(z: &[f64], out: &[f64], expected: usize) -> Result<()>
     Ok(())
 }
 
-/// Whether every value is finite (a branch-free fold per block: vectorised).
-pub(crate) fn all_finite(values: &[f64]) -> bool {
+/// Whether every value is in range, [`pixel_in_range`] (a branch-free fold per block: vectorised).
+pub(crate) fn all_in_range(values: &[f64]) -> bool {
     values
         .chunks(4096)
-        .all(|block| block.iter().fold(true, |ok, v| ok & v.is_finite()))
+        .all(|block| block.iter().fold(true, |ok, v| ok & pixel_in_range(*v)))
 }
 
 /// The (row, column) axes of a 2-axis model with n_y ≤ 4.

@@ -1077,7 +1077,7 @@ def link(
         # detections per frame over the bounding box of the columns (sides ≥ 1), whole table
         values = df[cols].to_numpy(dtype=float)
         frame_no = df["frame"].to_numpy()
-        rate = max(len(df) / (int(frame_no.max() - frame_no.min()) + 1), 1.0)
+        rate = max(len(df) / (int(frame_no.max()) - int(frame_no.min()) + 1), 1.0)
         sides = np.maximum(values.max(axis=0) - values.min(axis=0), 1.0)
         kwargs["clutter_density"] = float(rate / np.prod(sides))
     tr = BranchingTracker(
