@@ -71,6 +71,25 @@ def test_smoother_attains_the_bound_where_four_rows_correlate_to_rounding(order,
     assert exact_mse(f, model, noise_var, shape) == pytest.approx(bound, rel=5e-3)
 
 
+@pytest.mark.parametrize("order", [(1, 2), (2, 2), (3, 3), (4, 1)])
+def test_a_tall_causal_map_equals_the_reference_row_by_row(order):
+    # the kernel copies the rows after its Riccati step reaches a fixed point; the twin
+    # iterates every row (in the rows' basis: for (4,1) its rounding reaches ~1e-10 here)
+    model, shape = kf.ARFieldModel([0.9, 0.8], order, sigma=1.3), (600, 6)
+    want = ref.vector_error_map(model.rho, model.order, 1.3, 0.2, shape)
+    np.testing.assert_allclose(
+        kf.VectorRowFilter(model, 0.2, 6).error_variance(600), want, rtol=1e-9
+    )
+
+
+@pytest.mark.parametrize("order", [(2, 2), (4, 4)])
+def test_the_causal_map_keeps_its_digits_at_extreme_snr(order):
+    # σ_θ² = 1e-30 σ_x²: the error variance is σ_θ² (1 − O(σ_θ²)); read off P − c cᵀ/s it
+    # was ~1e12 σ_θ² on row 0 and 0 after it (cancellation)
+    f = kf.VectorRowFilter(kf.ARFieldModel([0.9, 0.9], order), 1e-30, 12)
+    np.testing.assert_allclose(f.error_variance(40) / 1e-30, 1.0, rtol=1e-9)
+
+
 def test_error_variance_matches_monte_carlo():
     # per-pixel MSE over R realisations has standard error ≈ var·√(2/R) (Gaussian errors)
     model = kf.ARFieldModel([0.9, 0.8], [2, 1])

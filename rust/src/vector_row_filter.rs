@@ -355,7 +355,18 @@ impl VectorRowFilter {
         let mut prev = self.dynamics.prior;
         for t in 1..=height {
             let step = self.dynamics.riccati_step(t, &prev, ratio);
-            column[t - 1] = variance(t, &step.filtered);
+            // h_tᵀ P⁺ h_t = q r / (q + r), q = h_tᵀ P h_t: the same value as read off P⁺, but
+            // without its cancellation q − q²/(q + r) at r ≪ q (σ_θ² ≲ 1e-16 σ_x², where
+            // the map read off P⁺ was wrong by orders of magnitude)
+            let q = variance(t, &step.predicted);
+            column[t - 1] = q * ratio / (q + ratio);
+            if !smooth && t > self.dynamics.order && step.filtered == prev {
+                // a fixed point of the (t-independent) step after the start: every later row
+                // is the same, bit for bit (a map of 10⁸ rows took minutes)
+                let converged = column[t - 1];
+                column[t..].fill(converged);
+                break;
+            }
             prev = step.filtered;
             if smooth {
                 history.push(step);
