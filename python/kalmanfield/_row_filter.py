@@ -136,7 +136,8 @@ class RowFilter:
 
     def filter(self, z: npt.ArrayLike) -> np.ndarray:
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). Returns float64 of z's shape. NaN pixels are refused (ValueError)."""
+        released). Returns float64 of z's shape. NaN pixels, and pixels with |z − mean| >
+        2**1000 ≈ 1e301 (whose sums would leave float64), are refused (ValueError)."""
         return self._filter_checked(images(z, self._width))
 
     def _filter_checked(self, arr: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
