@@ -90,6 +90,35 @@ def test_the_causal_map_keeps_its_digits_at_extreme_snr(order):
     np.testing.assert_allclose(f.error_variance(40) / 1e-30, 1.0, rtol=1e-9)
 
 
+@pytest.mark.parametrize("order", [(2, 2), (3, 3), (4, 4), (4, 1)])
+@pytest.mark.parametrize("noise_var", [1e-8, 1e-16, 1e-30])
+def test_the_smoothed_map_keeps_its_digits_at_extreme_snr(order, noise_var):
+    # the smoother is the posterior mean, so its map is the Wiener map (eigenbases of both
+    # axes, nothing cancelling); by the RTS covariances it was off by 1e-8 relative at
+    # σ_θ² = 1e-8 σ_x², 10 % at 1e-16 and ×1e12 at 1e-30 — now the modes with σ_θ²/v_j ≤ 1e-4
+    # take it from the information form (rust/src/column_precision.rs)
+    model = kf.ARFieldModel([0.9, 0.9], order)
+    f = kf.VectorRowFilter(model, noise_var, 12, smooth=True)
+    got = f.error_variance(40)
+    np.testing.assert_allclose(got, kf.wiener_error_map(model, noise_var, (40, 12)), rtol=1e-7)
+    twin = ref.vector_error_map(model.rho, model.order, 1.0, noise_var, (40, 12), smooth=True)
+    # the weak modes (σ_θ²/v_j > 1e-4 at σ_θ² = 1e-8) keep the RTS form, ~1e-8 on either side
+    np.testing.assert_allclose(got, twin, rtol=1e-7)
+
+
+@pytest.mark.parametrize("order", [(1, 2), (2, 2), (4, 3)])
+def test_the_smoothed_map_of_both_forms_equals_the_reference(order):
+    # σ = 10, σ_θ² = 0.01: the strongest modes (σ_θ²/v_j ~ 1e-5) take the information form,
+    # the weak ones the RTS covariances
+    model = kf.ARFieldModel([0.8, 0.9], order, sigma=10.0)
+    f = kf.VectorRowFilter(model, 0.01, 24, smooth=True)
+    ratios = 0.01 / (100 * np.linalg.eigvalsh(ref.axis_covariance(0.9, order[1], 24)))
+    assert ratios.min() <= ref.INFORMATION_RATIO < ratios.max()
+    twin = ref.vector_error_map(model.rho, model.order, 10.0, 0.01, (30, 24), smooth=True)
+    np.testing.assert_allclose(f.error_variance(30), twin, rtol=1e-9)
+    np.testing.assert_allclose(twin, kf.wiener_error_map(model, 0.01, (30, 24)), rtol=1e-9)
+
+
 def test_error_variance_matches_monte_carlo():
     # per-pixel MSE over R realisations has standard error ≈ var·√(2/R) (Gaussian errors)
     model = kf.ARFieldModel([0.9, 0.8], [2, 1])

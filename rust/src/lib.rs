@@ -14,6 +14,7 @@ pub mod banded;
 pub mod branching;
 pub mod cascade;
 pub mod chi_squared;
+mod column_precision;
 pub mod difference_gram;
 pub mod error;
 pub mod field_model;

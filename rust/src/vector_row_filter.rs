@@ -20,6 +20,7 @@
 
 use crate::axis_model::AxisModel;
 use crate::axis_modes::AxisModes;
+use crate::column_precision::{ColumnPrecision, INFORMATION_RATIO};
 use crate::error::{FieldError, Result};
 use crate::field_model::FieldModel;
 use faer::linalg::matmul::matmul;
@@ -38,6 +39,8 @@ pub type Small = Matrix4<f64>;
 pub struct VectorRowFilter {
     /// The rows' dynamics in their whitened basis (module doc).
     dynamics: RowDynamics,
+    /// R_y⁻¹, for the smoothed map of the modes with σ_θ²/v_j ≤ [`INFORMATION_RATIO`].
+    column: ColumnPrecision,
     noise_var: f64,
     modes: AxisModes,
     mode_var: Vec<f64>,
@@ -85,8 +88,10 @@ impl VectorRowFilter {
         let modes = AxisModes::new(x, width)?;
         let signal = model.sigma() * model.sigma();
         let mode_var = modes.values.iter().map(|l| signal * l).collect();
+        let dynamics = RowDynamics::new(y).whitened()?;
         Ok(Self {
-            dynamics: RowDynamics::new(y).whitened()?,
+            column: ColumnPrecision::new(y, &dynamics.readout)?,
+            dynamics,
             noise_var,
             modes,
             mode_var,
@@ -344,6 +349,13 @@ impl VectorRowFilter {
 
     fn mode_error_variances(&self, j: usize, smooth: bool, column: &mut [f64]) {
         let ratio = self.noise_var / self.mode_var[j];
+        if smooth
+            && ratio <= INFORMATION_RATIO
+            && self.column.smoothed_variances(ratio, column).is_ok()
+        {
+            column.iter_mut().for_each(|v| *v *= self.mode_var[j]);
+            return;
+        }
         let height = column.len();
         // h_tᵀ P h_t: the variance of the row that row t's readout reads
         let variance = |t: usize, p: &Small| {

@@ -335,12 +335,45 @@ def vector_row_filter(z, rho, order, sigma, noise_var, smooth=False):
             covs[t] = pf + j @ (covs[t + 1] - pe) @ j.transpose(0, 2, 1)
         for t in range(t0):
             means[t], covs[t] = means[t0], covs[t0]
-    est, var = np.empty_like(zb), np.empty((height, width))
+    est, modal = np.empty_like(zb), np.empty((height, width))
     for t in range(height):
         i = n - 1 - t if t < n else 0
         est[t] = u @ means[t][:, i, :]
-        var[t] = (u**2) @ covs[t][:, i, i]
-    return (est[..., 0] if single else est), var
+        modal[t] = covs[t][:, i, i]
+    if smooth:
+        with np.errstate(divide="ignore"):
+            ratio = noise_var / lam
+        for j in np.flatnonzero(ratio <= INFORMATION_RATIO):
+            modal[:, j] = lam[j] * information_column(rho[0], n, ratio[j], height)
+    return (est[..., 0] if single else est), modal @ (u**2).T
+
+
+# Modes with σ_θ²/λ_j at most this take the smoothed map from the information form (twin of
+# ``vector_row_filter::INFORMATION_RATIO``).
+INFORMATION_RATIO = 1e-4
+
+
+def column_precision(rho_y: float, n: int, height: int) -> np.ndarray:
+    """R_y⁻¹ of `height` rows (dense here; banded, bandwidth n): the exact stationary start's
+    density p(x_0..x_{n−1}) p(x_n | …) ⋯ as T_kᵀT_k on the first k = min(n, H) rows (T of
+    ``row_basis``)
+    plus g gᵀ/β̃² per later row, g = (−α_n, …, −α_1, 1) (SPEC §1.3, [P 2.8])."""
+    tmat, _ = row_basis(rho_y, n)
+    k = min(n, height)
+    q = np.zeros((height, height))
+    q[:k, :k] = tmat[:k, :k].T @ tmat[:k, :k]
+    g = np.concatenate([-companion(rho_y, n)[0][::-1], [1.0]])
+    for t in range(n, height):
+        q[t - n : t + 1, t - n : t + 1] += np.outer(g, g) / beta_tilde_sq(rho_y, n)
+    return q
+
+
+def information_column(rho_y: float, n: int, ratio: float, height: int) -> np.ndarray:
+    """Smoothed error variance, in units of the mode's variance, of one mode's column process
+    (covariance R_y, white noise `ratio`): diag (R_y⁻¹ + I/ratio)⁻¹ = ratio diag (I + ratio
+    R_y⁻¹)⁻¹, nothing cancelling at ratio ≪ 1 (the RTS covariances lose ε/ratio there)."""
+    m = np.eye(height) + ratio * column_precision(rho_y, n, height)
+    return ratio * np.diag(np.linalg.inv(m))
 
 
 def smoother_gains(pf: np.ndarray, pe: np.ndarray, a: np.ndarray) -> np.ndarray:
