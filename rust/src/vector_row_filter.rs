@@ -316,7 +316,9 @@ impl VectorRowFilter {
     }
 
     /// Per-pixel error variance (row-major height × width) of the filter (`smooth` = false) or
-    /// of the RTS smoother: diag of U P Uᵀ for the observed component of every row.
+    /// of the RTS smoother: diag of U P Uᵀ for the observed component of every row (the
+    /// smoother's modes with σ_θ²/v_j ≤ [`INFORMATION_RATIO`] in information form, see
+    /// `column_precision`).
     pub fn error_variance(&self, height: usize, smooth: bool, out: &mut [f64]) -> Result<()> {
         let w = self.width();
         if out.len() != height * w {

@@ -356,8 +356,7 @@ INFORMATION_RATIO = 1e-4
 def column_precision(rho_y: float, n: int, height: int) -> np.ndarray:
     """R_y⁻¹ of `height` rows (dense here; banded, bandwidth n): the exact stationary start's
     density p(x_0..x_{n−1}) p(x_n | …) ⋯ as T_kᵀT_k on the first k = min(n, H) rows (T of
-    ``row_basis``)
-    plus g gᵀ/β̃² per later row, g = (−α_n, …, −α_1, 1) (SPEC §1.3, [P 2.8])."""
+    ``row_basis``) plus g gᵀ/β̃² per later row, g = (−α_n, …, −α_1, 1) (SPEC §1.3, [P 2.8])."""
     tmat, _ = row_basis(rho_y, n)
     k = min(n, height)
     q = np.zeros((height, height))
