@@ -362,8 +362,9 @@ def column_precision(rho_y: float, n: int, height: int) -> np.ndarray:
     q = np.zeros((height, height))
     q[:k, :k] = tmat[:k, :k].T @ tmat[:k, :k]
     g = np.concatenate([-companion(rho_y, n)[0][::-1], [1.0]])
+    innovation_term = np.outer(g, g) / beta_tilde_sq(rho_y, n)
     for t in range(n, height):
-        q[t - n : t + 1, t - n : t + 1] += np.outer(g, g) / beta_tilde_sq(rho_y, n)
+        q[t - n : t + 1, t - n : t + 1] += innovation_term
     return q
 
 
