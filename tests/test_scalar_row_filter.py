@@ -673,6 +673,23 @@ def test_the_row_filters_are_scale_free(scale):
         kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.9], [1, 1], sigma=1e-200), 1e200, 8)
 
 
+@pytest.mark.parametrize("order,noise_var", [((3, 3), 1e-30), ((4, 4), 1e-20)])
+def test_a_noise_variance_too_small_for_the_start_is_refused_at_construction(order, noise_var):
+    # the start rows' systems Λ + Σ h hᵀ/σ_θ² (h dense rows of L) do not factor in float64
+    # at σ_θ² ≲ 1e-16 σ_x² for n_y ≥ 3: refused when the filter is made (it was at its first
+    # .filter); the vector filter, which the message names, keeps the image to ~σ_θ
+    model = kf.ARFieldModel([0.9, 0.9], order)
+    with pytest.raises(ValueError, match="too small for this filter .VectorRowFilter"):
+        kf.ScalarRowFilter(model, noise_var, 16)
+    x, z = noisy(model, (10, 16), noise_var, seed=2)
+    for smooth in (False, True):
+        est = kf.VectorRowFilter(model, noise_var, 16, smooth=smooth).filter(z)
+        assert np.abs(est - x).max() < 10 * np.sqrt(noise_var)
+    # a little above, it filters: nearly noise-free, the estimate is the image
+    near = kf.ScalarRowFilter(model, 1e-12, 16, smooth=True)
+    assert np.abs(near.filter(z) - z).max() < 1e-5
+
+
 @pytest.mark.parametrize(
     "call,exc,match",
     [

@@ -52,7 +52,9 @@ class ScalarRowFilter(RowFilter):
     changes from row to row), and frozen once the band has settled (the geometric tail of
     its row-to-row changes below 0.1 % on that scale; at most 64 models, down to 16 for
     rows whose models would take over 1 GiB, then the last one serves); rows 1..n_y use the
-    exact stationary prior.
+    exact stationary prior. For n_y ≥ 3 at σ_θ² ≲ 1e-16 σ_x² their systems
+    Λ + Σ h hᵀ/σ_θ² (h dense rows of the whitening's L) do not factor in float64: a
+    ValueError at construction (:class:`VectorRowFilter` handles such noise).
 
     At high SNR (σ_x²/σ_θ² ≥ 100, beyond the issue's grid) with ρ ≥ 0.95 the default band
     of n_y = 2 loses more (up to +2.9 % causal, +5.3 % smoothed for (2, 2) at ρ = 0.99;

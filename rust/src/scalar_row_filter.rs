@@ -118,6 +118,10 @@ pub struct ScalarRowFilter {
     /// state.
     whitened: RowDynamics,
     row_models: RowModels,
+    /// The start's prior Λ and the factors of the start rows' systems (`start_systems`):
+    /// the same for every height, made by `new` so that a noise variance too small for them
+    /// is refused there.
+    start: Option<(SymmetricBand, Vec<BandCholesky>)>,
     plan: Mutex<Option<Arc<Plan>>>,
 }
 
@@ -180,13 +184,37 @@ impl ScalarRowFilter {
             ar_order,
             noise_var,
             row_models: RowModels::Propagated,
+            start: None,
             plan: Mutex::new(None),
         };
         if modes == ModeSet::Ends {
             filter.modes = filter.ends_modes(x, model.sigma())?;
         }
         filter.mode_var = variances(filter.modes.values(), model.sigma());
+        filter.start = Some(filter.stationary_start(model.sigma())?);
         Ok(filter)
+    }
+
+    /// `start_systems` for the stationary prior (the band of row 1's prediction error). At
+    /// σ_θ² ≲ 1e-16 σ_x² with n_y ≥ 3 the start rows' systems, Λ + Σ h hᵀ/σ_θ² with h dense
+    /// rows of L, lose the Schur complements of their σ_θ⁻² terms in float64 and do not
+    /// factor: refused here, with the way out (`sigma`: σ_x, for the message).
+    fn stationary_start(&self, sigma: f64) -> Result<(SymmetricBand, Vec<BandCholesky>)> {
+        let modal = self
+            .whitened
+            .prediction_errors(self.noise_var, &self.mode_var)
+            .next()
+            .map(|(_, modal)| modal)
+            .unwrap_or_default();
+        self.start_systems(&self.band(&modal)).map_err(|e| {
+            FieldError::InvalidParameter(format!(
+                "ScalarRowFilter with n_y = {} at noise_var/σ² = {:.2e}: the start rows' \
+                 systems do not factor in float64 ({e}); noise_var is too small for this \
+                 filter (VectorRowFilter handles it)",
+                self.dynamics.order,
+                self.noise_var / (sigma * sigma)
+            ))
+        })
     }
 
     /// Chooses where the row models of weighted images come from (default: propagated).
@@ -585,8 +613,10 @@ impl ScalarRowFilter {
         {
             if t <= n {
                 if t == 1 {
-                    let band = self.band(&modal);
-                    let (prior, factors) = self.start_systems(&band)?;
+                    let (prior, factors) = match &self.start {
+                        Some(start) => start.clone(),
+                        None => self.start_systems(&self.band(&modal))?,
+                    };
                     plan.precisions.push(prior);
                     plan.factors = factors;
                 }
@@ -1435,6 +1465,18 @@ mod tests {
                 .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
             assert!(worst < 1e-3, "n_x = {nx}: {worst}");
         }
+    }
+
+    #[test]
+    fn a_noise_variance_too_small_for_the_start_is_refused_by_new() {
+        let model = FieldModel::new(&[0.9, 0.9], &[3, 3], 1.0).unwrap();
+        let refused = ScalarRowFilter::new(&model, 1e-30, 16, None, ModeSet::Ends);
+        let message = refused.unwrap_err().to_string();
+        assert!(message.contains("too small for this filter"), "{message}");
+        let filter = ScalarRowFilter::new(&model, 1e-12, 16, None, ModeSet::Ends).unwrap();
+        // the plan takes the start made by `new`
+        let plan = filter.plan(8).unwrap();
+        assert_eq!(plan.precisions[0], filter.start.as_ref().unwrap().0);
     }
 
     #[test]
