@@ -120,7 +120,7 @@ pub struct ScalarRowFilter {
     row_models: RowModels,
     /// The start's prior Λ and the factors of the start rows' systems (`start_systems`):
     /// the same for every height, made by `new` so that a noise variance too small for them
-    /// is refused there.
+    /// is refused there (None only inside `new`, before the row's modes are chosen).
     start: Option<(SymmetricBand, Vec<BandCholesky>)>,
     plan: Mutex<Option<Arc<Plan>>>,
 }
