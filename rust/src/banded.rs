@@ -355,7 +355,7 @@ pub(crate) trait Arith {
 /// Separate multiply and add (portable).
 pub(crate) struct Plain;
 
-/// Fused multiply-add: only instantiated inside [`BandCholesky::solve_fused`].
+/// Fused multiply-add: only instantiated inside `BandCholesky::solve_fused_fixed`.
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) struct Fused;
 
@@ -640,6 +640,23 @@ thread_local! {
     static SCRATCH: std::cell::Cell<Vec<Lanes>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
+/// `$factor.$kernel::<B>($x, $rhs)` for the bandwidths with a fixed kernel (unrolled inner
+/// products), the dynamic solve for the others.
+macro_rules! by_bandwidth {
+    ($factor:ident, $kernel:ident, $x:ident, $rhs:ident) => {
+        match $factor.bandwidth {
+            1 => $factor.$kernel::<1>($x, $rhs),
+            2 => $factor.$kernel::<2>($x, $rhs),
+            3 => $factor.$kernel::<3>($x, $rhs),
+            5 => $factor.$kernel::<5>($x, $rhs),
+            7 => $factor.$kernel::<7>($x, $rhs),
+            11 => $factor.$kernel::<11>($x, $rhs),
+            19 => $factor.$kernel::<19>($x, $rhs),
+            _ => $factor.solve_dynamic($x),
+        }
+    };
+}
+
 impl BandCholesky {
     /// The entries of A⁻¹ within the band (`band_inverse`), as a symmetric band.
     pub(crate) fn inverse_band(&self) -> SymmetricBand {
@@ -731,32 +748,32 @@ impl BandCholesky {
         #[cfg(target_arch = "x86_64")]
         if self.fused {
             // SAFETY: `fused` is set only when the CPU has FMA and AVX2.
-            return unsafe { self.solve_fused(x, rhs) };
+            return unsafe { by_bandwidth!(self, solve_fused_fixed, x, rhs) };
         }
-        self.solve_with::<Plain>(x, rhs)
+        self.solve_plain(x, rhs)
+    }
+
+    /// The solve with separate multiplies and adds (the portable kernels).
+    fn solve_plain(&self, x: &mut [f64], rhs: Rhs) {
+        by_bandwidth!(self, solve_plain_fixed, x, rhs)
+    }
+
+    /// One function per bandwidth: with the kernels of every bandwidth inlined into one
+    /// function, LLVM's loop passes (each loop's pass costs in the size of the whole
+    /// function) took most of the crate's build time, and the release test binary took
+    /// 43 minutes to build instead of 4.5 (same bits, same speed).
+    #[inline(never)]
+    fn solve_plain_fixed<const B: usize>(&self, x: &mut [f64], rhs: Rhs) {
+        self.solve_fixed::<Plain, B>(x, rhs)
     }
 
     /// The kernels compiled with FMA and AVX2 (they are all `inline(always)` into this
-    /// function).
+    /// function), one function per bandwidth as [`Self::solve_plain_fixed`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "fma,avx2")]
-    unsafe fn solve_fused(&self, x: &mut [f64], rhs: Rhs) {
-        self.solve_with::<Fused>(x, rhs)
-    }
-
-    /// The solve with the arithmetic `A`; fixed bandwidths unroll the inner products.
-    #[inline(always)]
-    fn solve_with<A: Arith>(&self, x: &mut [f64], rhs: Rhs) {
-        match self.bandwidth {
-            1 => self.solve_fixed::<A, 1>(x, rhs),
-            2 => self.solve_fixed::<A, 2>(x, rhs),
-            3 => self.solve_fixed::<A, 3>(x, rhs),
-            5 => self.solve_fixed::<A, 5>(x, rhs),
-            7 => self.solve_fixed::<A, 7>(x, rhs),
-            11 => self.solve_fixed::<A, 11>(x, rhs),
-            19 => self.solve_fixed::<A, 19>(x, rhs),
-            _ => self.solve_dynamic(x),
-        }
+    #[inline(never)]
+    unsafe fn solve_fused_fixed<const B: usize>(&self, x: &mut [f64], rhs: Rhs) {
+        self.solve_fixed::<Fused, B>(x, rhs)
     }
 
     /// Substitutions with the last B results kept in registers and the pre-scaled
@@ -1370,7 +1387,7 @@ mod tests {
             let (mut x, mut y, mut z) = (rhs.clone(), rhs.clone(), rhs.clone());
             ch.solve_in_place(&mut x);
             ch.solve_dynamic(&mut y);
-            ch.solve_with::<Plain>(&mut z, Rhs::Dense);
+            ch.solve_plain(&mut z, Rhs::Dense);
             let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
             assert!(z.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
@@ -1386,7 +1403,7 @@ mod tests {
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();
             let (mut x, mut y) = (rhs.clone(), rhs);
             ch.solve_in_place(&mut x);
-            ch.solve_with::<Plain>(&mut y, Rhs::Dense);
+            ch.solve_plain(&mut y, Rhs::Dense);
             assert!(x.iter().zip(&y).all(|(p, q)| (p - q).abs() < 1e-12));
         }
     }
@@ -1434,7 +1451,7 @@ mod tests {
                     assert!(x.iter().zip(&z).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
                     // the plain build of the lane-major path too
                     let mut w = rhs;
-                    lane_major.solve_with::<Plain>(&mut w, Rhs::Dense);
+                    lane_major.solve_plain(&mut w, Rhs::Dense);
                     assert!(w.iter().zip(&z).all(|(p, q)| (p - q).abs() < 1e-12 * scale));
                 }
             }
