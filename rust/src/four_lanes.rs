@@ -85,8 +85,8 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     /// An AVX2 register; the multiply-adds are fused. Only instantiated inside
-    /// `BandCholesky::solve_fused_fixed` (compiled with AVX2 and FMA, run only on CPUs that have
-    /// them; and the tests' AVX2 wrapper), into which every method is inlined.
+    /// `BandCholesky::solve_fused_fixed` (compiled with AVX2 and FMA, run only on CPUs
+    /// that have them; and the tests' AVX2 wrapper), into which every method is inlined.
     #[derive(Clone, Copy)]
     pub(crate) struct Avx2Lanes(__m256d);
 

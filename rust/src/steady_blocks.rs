@@ -201,8 +201,8 @@ impl SteadyBlocks {
         macro_rules! run {
             ($g:literal, $k:literal) => {
                 // SAFETY: `A::FourLanes` needs AVX2 and FMA only for `Fused`, which is
-                // instantiated only inside `BandCholesky::solve_fused_fixed` (run on CPUs that
-                // have them).
+                // instantiated only inside `BandCholesky::solve_fused_fixed` (run on CPUs
+                // that have them).
                 unsafe {
                     match (backward, rhs) {
                         (true, _) => recursion::<A::FourLanes, $g, $k, $g, true>(&self.backward, x),
