@@ -1,3 +1,5 @@
+from typing import final
+
 import numpy as np
 import numpy.typing as npt
 
@@ -6,8 +8,9 @@ MAX_ORDER: int
 class NonFiniteError(ValueError):
     """A NaN or infinite value where a kernel needs a finite one."""
 
+@final
 class FieldModel:
-    def __init__(self, rho: list[float], order: list[int], sigma: float) -> None: ...
+    def __new__(cls, rho: list[float], order: list[int], sigma: float) -> FieldModel: ...
     def beta(self) -> float: ...
     def template(self) -> npt.NDArray[np.float64]: ...
     def correlation(self, lags: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
@@ -69,8 +72,9 @@ def segment_stack(
     connectivity: int,
 ) -> tuple[dict[str, np.ndarray], npt.NDArray[np.int32]]: ...
 
+@final
 class VectorRowFilter:
-    def __init__(self, model: FieldModel, noise_var: float, width: int) -> None: ...
+    def __new__(cls, model: FieldModel, noise_var: float, width: int) -> VectorRowFilter: ...
     def filter_into(
         self,
         z: npt.NDArray[np.float64],
@@ -80,16 +84,17 @@ class VectorRowFilter:
     ) -> None: ...
     def error_variance(self, height: int, smooth: bool) -> npt.NDArray[np.float64]: ...
 
+@final
 class ScalarRowFilter:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         model: FieldModel,
         noise_var: float,
         width: int,
         ar_order: int | None = None,
         modes: str = "ends",
         row_models: str = "propagated",
-    ) -> None: ...
+    ) -> ScalarRowFilter: ...
     def bandwidth(self) -> int: ...
     def ends_span(self) -> int | None: ...
     def error_variance(
@@ -137,9 +142,10 @@ def wiener_map(
 
 MAX_MOTION_ORDER: int
 
+@final
 class BranchingTracker:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         order: list[int],
         process_std: list[float],
         measurement_std: list[float],
@@ -166,7 +172,7 @@ class BranchingTracker:
         max_shared: int,
         selection: str,
         seed: int,
-    ) -> None: ...
+    ) -> BranchingTracker: ...
     def update(self, measurements: npt.NDArray[np.float64], time: float | None = None) -> None: ...
     def tracks(self) -> dict[str, np.ndarray]: ...
     def online(self) -> dict[str, np.ndarray]: ...
