@@ -47,9 +47,10 @@ def _box_radius(window: object, z: np.ndarray) -> int:
 def estimate_noise_var(image: npt.ArrayLike) -> float:
     """σ_θ² of white noise in an image (or a stack, axes (…, H, W)): Donoho's robust estimate
     from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
-    σ̂ = median|d| / 0.6745 (the detail of a smooth image is ~0, of white noise N(0, σ²)),
-    pooled over the frames of a stack. Blocks with a NaN (missing) or infinite pixel are left
-    out. ValueError when σ̂² overflows float64 (σ̂ ≳ 1e154).
+    σ̂ = median|d| / Φ⁻¹(3/4) (≈ 0.67449, the normal's quartile; the detail of a smooth image
+    is ~0, of white noise N(0, σ²)), pooled over the frames of a stack. Blocks with a NaN
+    (missing) or infinite pixel are left out. ValueError when σ̂² overflows float64
+    (σ̂ ≳ 1e154).
     Rust kernel (``rust/src/noise_level.rs``; NumPy twin ``reference.noise_level``)."""
     z = real_array(image, "image")
     if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2 or z.size == 0:

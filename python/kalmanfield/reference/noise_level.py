@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Φ⁻¹(3/4), the standard normal's upper quartile (the median of |N(0, 1)|).
+NORMAL_QUARTILE = 0.6744897501960817
+
 
 def haar_noise_var(z: np.ndarray) -> float:
-    """σ̂² = (median|d| / 0.6745)² over the finest diagonal Haar details
+    """σ̂² = (median|d| / Φ⁻¹(3/4))² over the finest diagonal Haar details
     d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of the disjoint 2×2 blocks of an image or stack (…, H, W);
     blocks with a NaN or infinite pixel are left out."""
     z = np.asarray(z, dtype=np.float64)
@@ -19,4 +22,4 @@ def haar_noise_var(z: np.ndarray) -> float:
         raise ValueError(
             "no 2×2 block without a NaN (missing) or infinite pixel: cannot estimate the noise"
         )
-    return float((np.median(np.abs(detail)) / 0.6745) ** 2)
+    return float((np.median(np.abs(detail)) / NORMAL_QUARTILE) ** 2)
