@@ -676,8 +676,13 @@ def test_heavy_clutter_stays_bounded():
     assert (stats.seeds <= seeds).all()
     assert (stats.children[1:] > cap).all()  # the cap did bind
     assert stats.live.iloc[-1] == tracker.n_hypotheses
-    tracker.tracks()
-    tracker.tracks(online=True)
+    # the cap pruned clutter, not the targets: each has an online track point on it in the
+    # last frame (measured 1e-5…0.29 px; ~210 points in 256², so 1 px is ~1 % by chance)
+    online = tracker.tracks(online=True)
+    last = online[online.frame == 5]
+    for x, y in targets + 5 * np.array([1.0, 0.5]):
+        assert np.hypot(last.x - x, last.y - y).min() < 1.0
+    assert tracker.tracks().empty  # 6 frames in this clutter confirm nothing yet
 
 
 # ------------------------------------------------------------------------------- 9. property
@@ -755,3 +760,15 @@ def test_link_refuses_an_absurd_frame_range():
     det = pd.DataFrame({"frame": [0, 10**12], "x": [1.0, 2.0], "y": [1.0, 2.0]})
     with pytest.raises(ValueError, match="renumber"):
         kf.link(det, measurement_std=0.5, process_std=0.1)
+
+
+def test_detection_ids_map_to_frame_and_row():
+    tracker = kf.BranchingTracker(3)
+    assert tracker.n_params == 3
+    for size in (3, 0, 2):  # running ids: 0, 1, 2 in frame 0; 3, 4 in frame 2
+        tracker.update(np.arange(3.0 * size).reshape(size, 3))
+    frame, row = tracker.detection_frame([0, 2, 3, 4])
+    np.testing.assert_array_equal(frame, [0, 0, 2, 2])
+    np.testing.assert_array_equal(row, [0, 2, 0, 1])
+    with pytest.raises(ValueError, match="detection ids"):
+        tracker.detection_frame([5])

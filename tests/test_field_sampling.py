@@ -152,3 +152,12 @@ def test_product_field_threads_and_dtype():
     assert np.array_equal(a, b)
     c = kf.sample_product_field(model, (40, 50, 60), seed=1, dtype=np.float32)
     np.testing.assert_allclose(c, a, rtol=1e-6, atol=1e-6)
+
+
+def test_models_are_values():
+    a = kf.ARFieldModel([0.9, 0.8], [1, 2], sigma=2.0)
+    same = kf.ARFieldModel((0.9, 0.8), (1, 2), sigma=2.0)
+    other = kf.ARFieldModel([0.9, 0.8], [1, 2], sigma=1.0)
+    assert a.ndim == 2 and kf.ARFieldModel([0.5] * 3, 1).ndim == 3
+    assert a == same and hash(a) == hash(same) and a != other
+    assert len({a, same, other}) == 2  # usable as set members and dict keys

@@ -56,6 +56,7 @@ def test_pickle_resumes_bit_identically():
     for _ in range(4):
         assert np.array_equal(next(stream), next(copy))
     assert copy.time == stream.time == 7
+    assert repr(copy) == repr(stream) == f"FieldStream({model!r}, frame_shape=(16, 24), time=7)"
 
 
 def test_memory_is_bounded_by_the_time_order():

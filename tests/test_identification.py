@@ -5,8 +5,10 @@ import pickle
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 import kalmanfield as kf
+from kalmanfield.reference import identification as ref_id
 from kalmanfield.yule_walker import yule_walker_from_covariance
 
 _RNG = np.random.default_rng(12)
@@ -40,6 +42,12 @@ def test_yule_walker_on_a_simulated_field():
     assert np.isnan(pred[0]).all() and np.isnan(pred[:, 0]).all()
     residual = (x - pred)[1:, 1:]
     assert residual.std() == pytest.approx(model.beta, rel=0.02)
+    # a mask leaves its pixels out exactly as NaN does
+    holes = np.random.default_rng(1).random(x.shape) < 0.1
+    masked = kf.yule_walker(x, (1, 1), mask=holes)
+    gappy = kf.yule_walker(np.where(holes, np.nan, x), (1, 1))
+    np.testing.assert_allclose(masked.alpha, gappy.alpha, rtol=1e-12)
+    assert masked.beta == pytest.approx(gappy.beta, rel=1e-12) and masked.beta != fit.beta
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
@@ -54,9 +62,12 @@ def test_identify_recovers_multiplicity_and_rho(n, rho):
     np.testing.assert_allclose(fit.rho, rho, atol=0.02)
     if rho == 0.8:  # σ² is imprecise for ρ → 1 (few independent samples), see the benchmark
         assert fit.variance == pytest.approx(1.0, rel=0.2)
-    for axis_fit in fit.fits:
+    for axis, axis_fit in enumerate(fit.fits):
         assert axis_fit.criterion.argmin() == n - 1
         assert axis_fit.candidate_rho.shape == (4,)
+        assert axis_fit.candidate_rho[n - 1] == fit.rho[axis]  # the winner is a candidate
+        np.testing.assert_array_equal(axis_fit.candidate_orders, [1, 2, 3, 4])
+        np.testing.assert_array_equal(axis_fit.lags, np.arange(axis_fit.sample_correlation.size))
         np.testing.assert_allclose(
             axis_fit.fitted_correlation[:4], axis_fit.sample_correlation[:4], atol=0.05
         )
@@ -95,10 +106,21 @@ def test_replicate_axes_are_pooled():
 def test_true_model_residual_passes_the_whiteness_test():
     model = kf.ARFieldModel([0.9, 0.9], [2, 2])
     fit = kf.identify(model.sample((256, 256), seed=21))
-    for axis_fit in fit.fits:
+    # the residual recomputed here: the field less its mean, whitened along both axes by the
+    # fitted (1 − ρ z⁻¹)ⁿ (the twin; NaN where a line has no n predecessors)
+    residual = model.sample((256, 256), seed=21) - fit.mean
+    for axis in (0, 1):
+        residual = ref_id.whiten_axis(residual, axis, fit.rho[axis], fit.order[axis])
+    for axis, axis_fit in enumerate(fit.fits):
         w = axis_fit.whiteness
         assert w.dof == 10 and w.residual_correlation.shape == (10,)
         assert w.pvalue > 1e-3
+        sums, counts = ref_id.lag_products(residual, axis, 10)
+        r = (sums[1:] / counts[1:]) / (sums[0] / counts[0])
+        np.testing.assert_allclose(w.residual_correlation, r, rtol=1e-9, atol=1e-12)
+        box_pierce = float(np.sum(counts[1:] * r**2))
+        assert w.statistic == pytest.approx(box_pierce, rel=1e-9)
+        assert w.pvalue == pytest.approx(chi2.sf(box_pierce, 10), rel=1e-9)
     # a wrong order leaves correlated residuals: the test must reject it
     wrong = kf.ARFieldModel([0.9, 0.9], [1, 1]).sample((256, 256), seed=22)
     smooth = kf.identify(np.cumsum(wrong, axis=1) / 10, max_order=1)
@@ -129,6 +151,8 @@ def test_affine_invariance_missing_pixels_and_dtypes():
 def test_result_is_usable_and_picklable():
     fit = kf.identify(kf.ARFieldModel(0.85, [1, 2]).sample((128, 128), seed=1))
     assert isinstance(fit.model, kf.ARFieldModel)
+    assert fit.model.rho == fit.rho and fit.model.order == fit.order
+    assert fit.model.sigma**2 == pytest.approx(fit.variance, rel=1e-12)
     assert "axis 0" in fit.summary() and "axis 1" in fit.summary()
     again = pickle.loads(pickle.dumps(fit))
     assert again.model == fit.model

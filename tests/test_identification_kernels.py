@@ -100,16 +100,29 @@ def test_mask_masked_array_and_nan_agree():
     np.testing.assert_allclose(a, c, atol=1e-12)
 
 
+def bartlett_se(correlation, lag, n_points, reach=60):
+    """Bartlett's large-sample SE of a sample correlation at `lag` of a Gaussian field:
+    var r_h ≈ (1/N) Σ_k [ρ_k² + ρ_{k+h} ρ_{k−h} − 4 ρ_h ρ_k ρ_{k+h} + 2 ρ_h² ρ_k²], k ∈ Z²."""
+    k1, k2 = np.meshgrid(*2 * [np.arange(-reach, reach + 1)], indexing="ij")
+    rk, rh = correlation(k1, k2), correlation(*lag)
+    plus = correlation(k1 + lag[0], k2 + lag[1])
+    minus = correlation(k1 - lag[0], k2 - lag[1])
+    terms = rk**2 + plus * minus - 4 * rh * rk * plus + 2 * rh**2 * rk**2
+    return np.sqrt(terms.sum() / n_points)
+
+
 def test_sample_correlation_of_an_ar1_field_within_standard_error():
-    # AR(1) along both axes: R(1, 0) = R(0, 1) = ρ, R(1, 1) = ρ². For a (1,1) field the
-    # variance of the lag-1 estimate is ≈ (1+ρ²)²/(1-ρ²)² / N (Bartlett, 2-D product form).
+    # AR(1) along both axes: R(h₁, h₂) = ρ^(|h₁| + |h₂|)
     rho, n = 0.6, 512
     x = kf.ARFieldModel(rho, [1, 1]).sample((n, n), seed=11)
     r = kf.sample_correlation(x, 1)
-    se = (1 + rho**2) / (1 - rho**2) / n
-    assert abs(r[2, 1] - rho) < 5 * se
-    assert abs(r[1, 2] - rho) < 5 * se
-    assert abs(r[2, 2] - rho**2) < 5 * se
+
+    def correlation(a, b):
+        return rho ** (np.abs(a) + np.abs(b))
+
+    for lag in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        se = bartlett_se(correlation, lag, n * n)  # 0.0023 at (1, 0), 0.0033 at (1, 1)
+        assert abs(r[1 + lag[0], 1 + lag[1]] - correlation(*lag)) < 5 * se
     np.testing.assert_allclose(r, r[::-1, ::-1], atol=1e-12)  # R(-h) = R(h)
 
 

@@ -159,7 +159,13 @@ def test_stack_dtypes_mean_and_pickle():
     model = kf.ARFieldModel([0.9, 0.9], [1, 2], sigma=10.0)
     stack = np.stack([noisy(model, (16, 12), 4.0, s)[1] + 100 for s in range(3)])
     f = kf.VectorRowFilter(model, 4.0, 12, mean=100.0, threads=2)
+    assert (f.model, f.noise_var, f.width, f.smooth) == (model, 4.0, 12, False)
     out = f.filter(stack)
+    # the filter acts on the deviation from the mean, causal and smoothed alike
+    for smooth in (False, True):
+        centred = kf.VectorRowFilter(model, 4.0, 12, smooth=smooth).filter(stack - 100.0)
+        with_mean = kf.VectorRowFilter(model, 4.0, 12, smooth=smooth, mean=100.0)
+        np.testing.assert_allclose(with_mean.filter(stack), centred + 100.0, rtol=0, atol=1e-11)
     for k in range(3):
         np.testing.assert_allclose(out[k], f.filter(stack[k]), atol=1e-12)
     np.testing.assert_allclose(

@@ -101,10 +101,11 @@ def _spots(positions: np.ndarray, size: int, amplitude: float) -> np.ndarray:
     return image
 
 
-def _tracking_demo(out: Path, seed: int) -> None:
+def _tracking_demo(out: Path, seed: int) -> float:
     """Targets of amplitude 6 over a (1, 2, 2) AR background sequence (σ = 1) plus white
     noise; `segment` at threshold 4 (background exceedances are the clutter), then
-    `BranchingTracker`; writes tracks.csv and tracks.png."""
+    `BranchingTracker`; writes tracks.csv and tracks.png. Returns the fraction of the true
+    target positions with a track point within 2 px in the same frame."""
     size, n_frames = 256, 60
     rng = np.random.default_rng(seed)
     truth = _moving_targets(8, n_frames, size, rng)
@@ -135,6 +136,7 @@ def _tracking_demo(out: Path, seed: int) -> None:
         "(segment + track + rendering)"
     )
     _plot_tracks(out / "tracks.png", last, tracks, truth)
+    return found / truth[:, :, 0].size
 
 
 def _plot_tracks(path: Path, frame: np.ndarray, tracks, truth: np.ndarray) -> None:

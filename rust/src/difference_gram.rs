@@ -179,6 +179,30 @@ mod tests {
         let g = difference_gram(&data, &[20], 0, 2).unwrap();
         // positions 2..20 minus those whose window (i-2..=i) holds index 10
         assert_eq!(g.count, 18 - 3);
+        // on a ramp D⁰x_i = i/2, D¹x = 1/2, D²x = 0, summed over the positions kept
+        let kept: Vec<f64> = (2..20)
+            .filter(|i| !(10..=12).contains(i))
+            .map(|i| i as f64)
+            .collect();
+        let want = [
+            [
+                kept.iter().map(|i| 0.25 * i * i).sum(),
+                kept.iter().map(|i| 0.25 * i).sum(),
+                0.0,
+            ],
+            [
+                kept.iter().map(|i| 0.25 * i).sum(),
+                0.25 * kept.len() as f64,
+                0.0,
+            ],
+            [0.0; 3],
+        ];
+        for (got, want) in g.symmetric().iter().zip(want.iter().flatten()) {
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                "{got} vs {want}"
+            );
+        }
     }
 
     #[test]

@@ -107,5 +107,17 @@ mod tests {
         // 5 standard errors
         assert!(mean.abs() < 5.0 / (n as f64).sqrt());
         assert!((var - 1.0).abs() < 5.0 * (2.0 / n as f64).sqrt());
+        // the shape: E x⁴ = 3 (SE √(96/n)) and P(|x| > 2) = 2Φ(−2) (binomial SE)
+        let fourth = v.iter().map(|x| x.powi(4)).sum::<f64>() / n as f64;
+        assert!(
+            (fourth - 3.0).abs() < 5.0 * (96.0 / n as f64).sqrt(),
+            "{fourth}"
+        );
+        let tail = v.iter().filter(|x| x.abs() > 2.0).count() as f64 / n as f64;
+        let p = 0.045_500_263_896_358;
+        assert!(
+            (tail - p).abs() < 5.0 * (p * (1.0 - p) / n as f64).sqrt(),
+            "{tail}"
+        );
     }
 }
