@@ -314,3 +314,20 @@ def test_link_with_frame_numbers_spanning_int64():
         kf.link(det, measurement_std=0.5, process_std=0.1)
     wide = pd.DataFrame({"frame": [0, 0, 1], "x": [-1e150, 1e150, 0.0], "y": [-1e150, 1e150, 0.0]})
     assert (kf.link(wide, measurement_std=0.5, process_std=0.1).particle == -1).all()
+
+
+@pytest.mark.parametrize(
+    "call,match",
+    [
+        (lambda: kf.ARFieldModel(10**400, [1, 1]), "between 0 and 1, got inf"),
+        (lambda: kf.ARFieldModel(0.5, [1, 1], sigma=-(10**400)), "sigma must be a positive"),
+        (lambda: kf.ScalarRowFilter(MODEL, 10**400, 8), "noise_var must be positive and finite"),
+        (lambda: kf.VectorRowFilter(MODEL, 1.0, 8, mean=-(10**400)), "mean must be finite"),
+        (lambda: kf.segment(np.zeros((4, 4)), 10**400), "threshold must be a finite"),
+        (lambda: kf.BranchingTracker(2, process_std=10**400), "process_std must be finite"),
+    ],
+)
+def test_integers_beyond_float64_are_refused_by_name(call, match):
+    # (float() raised OverflowError and NumPy's isfinite a TypeError about ufunc casting)
+    with pytest.raises(ValueError, match=match):
+        call()

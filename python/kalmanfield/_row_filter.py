@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import numbers
+import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_int, real_array, real_number, thread_count
+from ._validation import positive_int, real_array, real_number, real_value, thread_count
 from .ar_field_model import ARFieldModel
 
 #: smallest σ_θ²/σ_x² the row filters accept: float64's smallest normal number
@@ -52,11 +53,10 @@ def in_image_units(variance: np.ndarray, sigma: float) -> np.ndarray:
 
 def positive_float(value: object, name: str) -> float:
     """A positive finite real number."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be positive and finite, got {value}")
-    return float(value)
+    number = real_value(value, name)
+    if not (math.isfinite(number) and number > 0):
+        raise ValueError(f"{name} must be positive and finite, got {number}")
+    return number
 
 
 def images(
@@ -95,10 +95,9 @@ class RowFilter:
     parameters, their properties and :meth:`filter`. Subclasses set ``_core``."""
 
     __slots__ = ("_model", "_noise_var", "_width", "_smooth", "_mean", "_threads", "_core")
+    _core: Any  # the subclass's kernel object (`_core.VectorRowFilter` or `ScalarRowFilter`)
 
-    def _set_parameters(
-        self, model, noise_var, width, smooth, mean, threads
-    ) -> tuple[object, float]:
+    def _set_parameters(self, model, noise_var, width, smooth, mean, threads) -> tuple[Any, float]:
         """Checks and stores the parameters; returns the kernel's model and noise variance,
         in units of σ_x (:func:`unit_scale`)."""
         self._model = row_model(model)

@@ -3,6 +3,7 @@ before any kernel runs."""
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 from collections.abc import Iterable, Sequence
@@ -65,13 +66,24 @@ def nonnegative_int(value: Any, name: str) -> int:
     return int(value)
 
 
+def real_value(value: object, name: str, what: str = "be a real number") -> float:
+    """`value` as a float; TypeError "<name> must <what>" unless it is a real number (bools
+    refused). An integer or fraction beyond float64 becomes ±inf, for the caller's range
+    check to refuse (float() raised OverflowError, NumPy's isfinite a TypeError on them)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must {what}, got {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        return -math.inf if value < 0 else math.inf
+
+
 def real_number(value: Any, name: str) -> float:
     """A finite real number (bools refused)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    return float(value)
+    number = real_value(value, name)
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {number}")
+    return number
 
 
 def probability(value: Any, name: str) -> float:

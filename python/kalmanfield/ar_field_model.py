@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Union
@@ -18,6 +19,7 @@ from ._validation import (
     float_dtype,
     grid_shape,
     positive_int,
+    real_value,
     resolve_seed,
     thread_count,
 )
@@ -46,10 +48,9 @@ def _per_axis(rho: RhoLike, order: OrderLike) -> tuple[tuple[float, ...], tuple[
     if not rhos:
         raise ValueError("a field model needs at least one axis")
     for r in rhos:
-        if isinstance(r, (bool, np.bool_)) or not isinstance(r, numbers.Real):
-            raise TypeError(f"rho must hold real numbers, got {r!r}")
-        if not 0.0 < float(r) < 1.0:  # NaN fails this too
-            raise ValueError(f"every rho must lie strictly between 0 and 1, got {float(r)}")
+        value = real_value(r, "rho", "hold real numbers")
+        if not 0.0 < value < 1.0:  # NaN fails this too
+            raise ValueError(f"every rho must lie strictly between 0 and 1, got {value}")
     max_order = _core.MAX_ORDER
     checked = tuple(positive_int(n, "every order") for n in orders)
     if max(checked) > max_order:
@@ -64,7 +65,7 @@ def _as_tuple(value: object, kind: type, name: str, what: str) -> tuple:
     if isinstance(value, kind):
         return (value,)
     try:
-        return tuple(value)  # type: ignore[call-overload]
+        return tuple(value)  # type: ignore[arg-type]
     except TypeError:
         raise TypeError(f"{name} must be a {what} or a sequence of them, got {value!r}") from None
 
@@ -91,12 +92,11 @@ class ARFieldModel:
 
     def __init__(self, rho: RhoLike, order: OrderLike, sigma: float = 1.0) -> None:
         self._rho, self._order = _per_axis(rho, order)
-        if isinstance(sigma, (bool, np.bool_)) or not isinstance(sigma, numbers.Real):
-            raise TypeError(f"sigma must be a real number, got {sigma!r}")
-        if not (np.isfinite(sigma) and sigma > 0):
-            raise ValueError(f"sigma must be a positive finite number, got {sigma}")
-        self._sigma = float(sigma)
-        self._core = _core.FieldModel(list(self._rho), list(self._order), self._sigma)
+        self._sigma: float = real_value(sigma, "sigma")
+        if not (math.isfinite(self._sigma) and self._sigma > 0):
+            raise ValueError(f"sigma must be a positive finite number, got {self._sigma}")
+        rho, order = list(self._rho), list(self._order)
+        self._core: _core.FieldModel = _core.FieldModel(rho, order, self._sigma)
 
     # -- attributes ---------------------------------------------------------------------
     @property

@@ -36,7 +36,14 @@ import pandas as pd
 
 from . import _core
 from ._row_filter import positive_float
-from ._validation import nonnegative_int, positive_int, probability, real_array, real_number
+from ._validation import (
+    nonnegative_int,
+    positive_int,
+    probability,
+    real_array,
+    real_number,
+    real_value,
+)
 
 __all__ = ["BranchingTracker"]
 
@@ -54,11 +61,15 @@ def _per_param(value: Any, k: int, name: str, kind: type = float) -> list:
         raise ValueError(f"{name} needs {k} values (one per parameter), got {len(values)}")
     out = []
     for v in values:
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
-            raise TypeError(f"{name} must hold real numbers, got {v!r}")
-        if kind is int and int(v) != v:
+        number = real_value(v, name, "hold real numbers")
+        if kind is not int:
+            out.append(number)
+        elif isinstance(v, numbers.Integral):
+            out.append(int(v))
+        elif number.is_integer():
+            out.append(int(number))
+        else:
             raise TypeError(f"{name} must hold integers, got {v!r}")
-        out.append(kind(v))
     return out
 
 

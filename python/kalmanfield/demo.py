@@ -135,6 +135,7 @@ def _tracking_demo(out: Path, seed: int) -> float:
         f"of target positions within 2 px, {elapsed * 1e3 / n_frames:.1f} ms/frame "
         "(segment + track + rendering)"
     )
+    assert last is not None  # n_frames > 0
     _plot_tracks(out / "tracks.png", last, tracks, truth)
     return found / truth[:, :, 0].size
 

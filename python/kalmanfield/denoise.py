@@ -221,7 +221,7 @@ def denoise(
     if adaptive:
         detail = DETAIL_MODEL if model is None else model
         return _adaptive(z, nv, detail, window, (smooth, row_models), threads)
-    modes = "ends"
+    modes: Literal["ends", "toeplitz"] = "ends"
     if model is None:
         model, fitted_mean, _ = model_from_noisy(z)
         mean = fitted_mean if mean is None else mean
@@ -229,7 +229,7 @@ def denoise(
     mean = float(np.nanmean(z)) if mean is None else float(mean)
     if method == "scalar":
         m = _core.model_ar_order(model.order[1])  # (docstring: adaptive=False)
-        filt = ScalarRowFilter(
+        filt: ScalarRowFilter | VectorRowFilter = ScalarRowFilter(
             model, nv, z.shape[-1], m, smooth=smooth, mean=mean, modes=modes, threads=threads
         )
     else:

@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from math import comb
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -188,12 +189,12 @@ def _axis_correlation(rho: float, n: int, lags: np.ndarray) -> np.ndarray:
 def _model_axes(axes: Sequence[int] | None, ndim: int) -> tuple[int, ...]:
     if axes is None:
         return tuple(range(ndim))
-    items = (axes,) if isinstance(axes, numbers.Integral) else tuple(axes)
+    items: tuple[Any, ...] = (axes,) if isinstance(axes, numbers.Integral) else tuple(axes)
     out = []
     for a in items:
         if isinstance(a, (bool, np.bool_)) or not isinstance(a, numbers.Integral):
             raise TypeError(f"axes must hold integers, got {a!r}")
-        if not -ndim <= a < ndim:
+        if not -ndim <= int(a) < ndim:
             raise ValueError(f"axis {a} is out of range for {ndim}-D data")
         out.append(int(a) % ndim)
     if not out or len(set(out)) != len(out):

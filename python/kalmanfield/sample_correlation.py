@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Iterable, Sequence
-from typing import Literal, Union
+from typing import Any, Literal, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -68,6 +68,7 @@ def sample_correlation(
 
 
 def _max_lags(max_lag: LagLike, shape: tuple[int, ...]) -> tuple[int, ...]:
+    items: tuple[Any, ...]
     if isinstance(max_lag, numbers.Integral):
         items = (max_lag,) * len(shape)
     elif isinstance(max_lag, Iterable) and not isinstance(max_lag, str):

@@ -3,15 +3,16 @@
 
 from __future__ import annotations
 
+import math
 import numbers
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
 from . import _core
-from ._validation import positive_int
+from ._validation import positive_int, real_value
 
 #: columns of the segment table, in order (``frame`` comes first when ``frame_no`` is given)
 COLUMNS = (
@@ -120,6 +121,7 @@ def _frame_array(frame: npt.ArrayLike) -> np.ndarray:
         raise ValueError(
             f"frame must be 2-D (or a 3-D stack), got {arr.ndim} dimensions (shape {arr.shape})"
         )
+    target: np.dtype[Any]
     if kind == "b":
         target = np.dtype(np.uint8)
     elif arr.dtype.newbyteorder("=") in _KERNEL_DTYPES:
@@ -146,11 +148,10 @@ def _segment_stack(
 
 
 def _threshold(value: object) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"threshold must be a real number, got {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"threshold must be a finite number, got {value}")
-    return float(value)
+    threshold = real_value(value, "threshold")
+    if not math.isfinite(threshold):
+        raise ValueError(f"threshold must be a finite number, got {threshold}")
+    return threshold
 
 
 def _connectivity(value: object) -> int:

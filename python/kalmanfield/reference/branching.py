@@ -334,7 +334,7 @@ class _Hyps:
 
     def take(self, idx) -> _Hyps:
         return _Hyps(
-            **{
+            **{  # type: ignore[arg-type]
                 f: ([a[idx] for a in v] if isinstance(v, list) else v[idx])
                 for f, v in self.__dict__.items()
             }
@@ -468,7 +468,7 @@ class BranchingTracker:
         self.nodes = _Nodes(int(self.off[-1]))
         self.h = self._empty()
         self.frame = 0
-        self.t = None
+        self.t: float | None = None
         self.n_meas = 0
         self._meas: list[np.ndarray] = []
         self._lo = np.full(k, np.inf)
@@ -846,7 +846,7 @@ class BranchingTracker:
         if h.size == 0:
             return n0
         return _Hyps(
-            **{
+            **{  # type: ignore[arg-type]
                 f: (
                     [np.concatenate([a, b]) for a, b in zip(v, getattr(n0, f))]
                     if isinstance(v, list)
@@ -1017,8 +1017,8 @@ class BranchingTracker:
         per-frame online answer instead (particle = track tree id).
         """
         if online:
-            cols = ["frame", "particle", *self.names, "coasted", "score"]
-            return pd.DataFrame(self._online, columns=cols)
+            names = ["frame", "particle", *self.names, "coasted", "score"]
+            return pd.DataFrame(self._online, columns=names)
         nodes = self.nodes
         cols: dict[str, list] = {"frame": [], "particle": []}
         chosen = self.select()

@@ -1,0 +1,31 @@
+"""The package is typed (it ships `py.typed`): mypy finds no error in its sources, and the
+stubs of the compiled module agree with it (mypy's stubtest): every function, class, method
+and parameter of `kalmanfield._core` is declared in `_core.pyi` with the runtime's names,
+kinds and defaults, and nothing else is."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_mypy(tool, args, tmp_path):
+    command = [sys.executable, "-m", tool, *args, "--cache-dir", str(tmp_path / "cache")]
+    return subprocess.run(command, capture_output=True, text=True, cwd=ROOT, timeout=600)
+
+
+def test_sources_type_check(tmp_path):
+    run = run_mypy("mypy", ["--config-file", str(ROOT / "pyproject.toml")], tmp_path)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_core_stub_matches_the_compiled_module(tmp_path):
+    config = tmp_path / "mypy.ini"
+    config.write_text("[mypy]\n")
+    allowlist = Path(__file__).with_name("stubtest_allowlist.txt")
+    args = ["kalmanfield._core", "--allowlist", str(allowlist), "--mypy-config-file", str(config)]
+    run = subprocess.run(
+        [sys.executable, "-m", "mypy.stubtest", *args], capture_output=True, text=True, timeout=600
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
