@@ -7,6 +7,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytest.importorskip("mypy", reason="mypy (test extra) needs Python ≥ 3.10")
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
