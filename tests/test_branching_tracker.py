@@ -219,9 +219,12 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     The tracker's start, replicated here: x0 = (z0, 0, …, 0), P0 = diag(R, (10·max_speed)²,
     …) per parameter (the reference's ``_p0``), then an ordinary Kalman update at every
     frame. The first ν_max+1 measurements add no increment; the index is the sum of the last
-    N increments. Score: start points ≥ 2 add ln P_d − ln(λ·π r²), r = max_speed·τ +
-    3√2·max σ_spatial; measured frames ln P_d − ln λ − ½ Σ ln(2π D_q) − ½ δ (k = 2 only,
-    where λ_s = λ)."""
+    N increments. Score (0 at the first point): start points 2…ν_max+1 add
+    ln P_d − ln(λ_s·π r²), r = max_speed·τ + 3√2·max σ_spatial (spatial parameters only), where
+    λ_s = λ·Π_{q ≥ n_spatial} (max − min of z_q over every measurement so far, this frame's
+    included; floor 1e-9): the given λ is per unit of the k-dimensional parameter space, its
+    spatial part integrates it over the extent seen of the other parameters (λ_s = λ for
+    k = 2). Measured frames add ln P_d − ln λ − ½ Σ_q ln(2π D_q) − ½ δ over all k parameters."""
     k = len(orders)
     rng = np.random.default_rng(5)
     T, N, pd_, lam, vmax = 30, 4, 0.9, 1e-4, 6.0
@@ -271,13 +274,19 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     incs[: nu_max + 1] = 0.0
     index = np.array([incs[max(0, i - N + 1) : i + 1].sum() for i in range(T)])
     np.testing.assert_allclose(tracks["index"].to_numpy(), index, rtol=0, atol=1e-9)
-    if k == 2:
-        r_ls = vmax * np.diff(times) + 3.0 * math.sqrt(2.0) * meas_std.max()
-        d_start = math.log(pd_) - np.log(lam * np.pi * r_ls**2)
-        d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
-        dscore = np.where(np.arange(1, T) <= nu_max, d_start, d_meas)
-        score = np.r_[0.0, np.cumsum(dscore)]
-        np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
+    s = 2  # n_spatial, default min(k, 2): x, y
+    r_ls = vmax * np.diff(times) + 3.0 * math.sqrt(2.0) * meas_std[:s].max()
+    extent = np.ones(T)  # Π over the non-spatial parameters of their extent seen so far
+    for q in range(s, k):
+        extent *= np.maximum(np.maximum.accumulate(z[:, q]) - np.minimum.accumulate(z[:, q]), 1e-9)
+    lam_s = lam * extent[1:]
+    d_start = math.log(pd_) - np.log(lam_s * np.pi * r_ls**2)
+    d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
+    dscore = np.where(np.arange(1, T) <= nu_max, d_start, d_meas)
+    score = np.r_[0.0, np.cumsum(dscore)]
+    np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
+    if k > s:  # the start terms use λ_s, not λ: the check tells them apart
+        assert np.all(np.abs(np.log(extent[1 : nu_max + 1])) > 1e-3)
 
 
 # ------------------------------------------------------------------------------- 3. χ² index

@@ -97,7 +97,8 @@ class BranchingTracker:
     dt : frame step when :meth:`update` gets no time.
     p_detect : detection probability used by the score.
     clutter_density : clutter points per unit of parameter space per frame; ``None`` =
-        estimated from the measurement counts and their bounding box.
+        estimated from the measurement counts and their bounding box. The score of a start
+        uses its spatial part: λ times the extent seen so far of the non-spatial parameters.
     max_speed : maximum speed (spatial units per time) between the first ν+1 points of a
         sequence (the least-squares start is gated by it).
     n_confirm, confirm_llr, confirm_window : a sequence is confirmed once it has ``n_confirm``

@@ -22,7 +22,7 @@ freedom, n = min(#increments, N). This test *is* the gate: a measurement is a ca
 sequence iff δ ≤ α(k·n_new) − (sum of the increments that stay in the window). The first ν_max+1
 measurements of a sequence are the least-squares start (SPEC §3.3 step 1, "I = 0 for least-squares
 starts"): they add no increment; the second and later start points are gated by a maximum speed
-instead (‖Δposition‖ ≤ max_speed·Δt + 3√2·σ).
+instead (‖Δposition‖ ≤ max_speed·Δt + 3√2·σ, σ the largest spatial measurement std).
 
 Branching (SPEC §3.3 step 2) and pruning
 ----------------------------------------
@@ -66,8 +66,10 @@ Sequences are ranked by the standard track score (log-likelihood ratio of "targe
     start point ≥ 2:   ΔL = ln P_d − ln(λ_s · V_speed)         (uniform inside the speed gate)
     missed frame:      ΔL = ln(1 − P_d)
 
-(λ = clutter density in the k-dimensional parameter space, λ_s its spatial part; if not given it
-is estimated as the mean number of measurements per frame over the bounding box seen so far.)
+(λ = clutter density in the k-dimensional parameter space, λ_s its spatial part: a given λ
+times the extent seen so far of the non-spatial parameters (max − min over every measurement,
+this frame's included, floored at 1e-9); if not given, both are estimated as the mean number of
+measurements per frame over the bounding box seen so far, its spans floored at 1.)
 It is a monotone function of the index for equal lengths and miss patterns, grows with the
 length of a good sequence and falls with misses, clutter-like jumps and a high clutter density.
 
