@@ -320,10 +320,10 @@ def test_link_with_frame_numbers_spanning_int64():
     "call,match",
     [
         (lambda: kf.ARFieldModel(10**400, [1, 1]), "between 0 and 1, got inf"),
-        (lambda: kf.ARFieldModel(0.5, [1, 1], sigma=-(10**400)), "sigma must be a positive"),
+        (lambda: kf.ARFieldModel(0.5, [1, 1], sigma=-(10**400)), "sigma must be positive"),
         (lambda: kf.ScalarRowFilter(MODEL, 10**400, 8), "noise_var must be positive and finite"),
         (lambda: kf.VectorRowFilter(MODEL, 1.0, 8, mean=-(10**400)), "mean must be finite"),
-        (lambda: kf.segment(np.zeros((4, 4)), 10**400), "threshold must be a finite"),
+        (lambda: kf.segment(np.zeros((4, 4)), 10**400), "threshold must be finite"),
         (lambda: kf.BranchingTracker(2, process_std=10**400), "process_std must be finite"),
     ],
 )

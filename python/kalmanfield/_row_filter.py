@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_int, real_array, real_number, real_value, thread_count
+from ._validation import positive_float, positive_int, real_array, real_number, thread_count
 from .ar_field_model import ARFieldModel
 
 #: smallest σ_θ²/σ_x² the row filters accept: float64's smallest normal number
@@ -49,14 +48,6 @@ def in_image_units(variance: np.ndarray, sigma: float) -> np.ndarray:
     variance *= sigma
     variance *= sigma
     return variance
-
-
-def positive_float(value: object, name: str) -> float:
-    """A positive finite real number."""
-    number = real_value(value, name)
-    if not (math.isfinite(number) and number > 0):
-        raise ValueError(f"{name} must be positive and finite, got {number}")
-    return number
 
 
 def images(

@@ -86,6 +86,14 @@ def real_number(value: Any, name: str) -> float:
     return number
 
 
+def positive_float(value: object, name: str) -> float:
+    """A positive finite real number (bools refused)."""
+    number = real_value(value, name)
+    if not (math.isfinite(number) and number > 0):
+        raise ValueError(f"{name} must be positive and finite, got {number}")
+    return number
+
+
 def probability(value: Any, name: str) -> float:
     """A real number strictly between 0 and 1."""
     p = real_number(value, name)

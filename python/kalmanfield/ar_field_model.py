@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Union
@@ -18,6 +17,7 @@ from ._validation import (
     finite_noise,
     float_dtype,
     grid_shape,
+    positive_float,
     positive_int,
     real_value,
     resolve_seed,
@@ -92,9 +92,7 @@ class ARFieldModel:
 
     def __init__(self, rho: RhoLike, order: OrderLike, sigma: float = 1.0) -> None:
         self._rho, self._order = _per_axis(rho, order)
-        self._sigma: float = real_value(sigma, "sigma")
-        if not (math.isfinite(self._sigma) and self._sigma > 0):
-            raise ValueError(f"sigma must be a positive finite number, got {self._sigma}")
+        self._sigma: float = positive_float(sigma, "sigma")
         rho, order = list(self._rho), list(self._order)
         self._core: _core.FieldModel = _core.FieldModel(rho, order, self._sigma)
 

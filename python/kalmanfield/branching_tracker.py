@@ -35,9 +35,9 @@ import numpy.typing as npt
 import pandas as pd
 
 from . import _core
-from ._row_filter import positive_float
 from ._validation import (
     nonnegative_int,
+    positive_float,
     positive_int,
     probability,
     real_array,

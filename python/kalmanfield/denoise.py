@@ -9,8 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._row_filter import images, positive_float, positive_int, row_model
-from ._validation import real_array, thread_count
+from ._row_filter import images, row_model
+from ._validation import positive_float, positive_int, real_array, thread_count
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
 from .scalar_row_filter import ScalarRowFilter, check_row_models

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import math
 import numbers
 from typing import Any, Literal, overload
 
@@ -12,7 +11,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from . import _core
-from ._validation import positive_int, real_value
+from ._validation import positive_int, real_number
 
 #: columns of the segment table, in order (``frame`` comes first when ``frame_no`` is given)
 COLUMNS = (
@@ -96,7 +95,7 @@ def segment(
     float64 otherwise), or (DataFrame, label image) if `labels`.
     """
     image = _frame_array(frame)
-    t = _threshold(threshold)
+    t = real_number(threshold, "threshold")
     area = positive_int(min_area, "min_area")
     conn = _connectivity(connectivity)
     frame_no = _frame_no(frame_no, image.shape[0] if image.ndim == 3 else 1)
@@ -145,13 +144,6 @@ def _segment_stack(
     data = {"frame": frames + first, **{name: columns[name] for name in COLUMNS}}
     table = pd.DataFrame(data, copy=False)
     return (table, label_image) if labels else table
-
-
-def _threshold(value: object) -> float:
-    threshold = real_value(value, "threshold")
-    if not math.isfinite(threshold):
-        raise ValueError(f"threshold must be a finite number, got {threshold}")
-    return threshold
 
 
 def _connectivity(value: object) -> int:

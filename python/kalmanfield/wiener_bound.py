@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from ._row_filter import in_image_units, positive_float, row_model, unit_scale
-from ._validation import ShapeLike, check_memory, grid_shape
+from ._row_filter import in_image_units, row_model, unit_scale
+from ._validation import ShapeLike, check_memory, grid_shape, positive_float
 from .ar_field_model import ARFieldModel
 
 
