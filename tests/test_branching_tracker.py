@@ -179,11 +179,13 @@ def test_rust_equals_reference_irregular_times_and_empty_frames(scenario):
 
 
 # ------------------------------------------------------------------------------- 2. Kalman
-def numpy_kalman(z, times, order, process_std, r, max_speed):
+def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
     """Plain per-parameter polynomial Kalman filter (SPEC §3.1), written independently:
     F = Taylor matrix of τ, Q = σ² g gᵀ with g_i = τ^(ν+1−i)/(ν+1−i)!, H = (1, 0, …).
-    Returns the filtered states, the normalised innovations (NaN at the start) and the
-    innovation variances."""
+    ``js[i]`` > 0: the tracker's maneuver branch at frame i, a velocity jump of that
+    std at the previous frame, P_pred += σ_m² g_m g_mᵀ with g_m = (τ, 1, 0, …) ((1,) for
+    order 0). Returns the filtered states, the normalised innovations (NaN at the start)
+    and the innovation variances."""
     d = order + 1
     x = np.zeros(d)
     x[0] = z[0]
@@ -201,6 +203,10 @@ def numpy_kalman(z, times, order, process_std, r, max_speed):
         g = np.array([tau ** (d - a) / math.factorial(d - a) for a in range(d)])
         x_pred = F @ x
         P_pred = F @ P @ F.T + process_std**2 * np.outer(g, g)
+        if js is not None and js[i] > 0:
+            g_m = np.zeros(d)
+            g_m[:2] = [tau, 1.0] if d > 1 else [1.0]
+            P_pred += js[i] ** 2 * np.outer(g_m, g_m)
         S = H @ P_pred @ H + r
         K = P_pred @ H / S
         innovation = z[i] - H @ x_pred
@@ -222,9 +228,10 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     N increments. Score (0 at the first point): start points 2…ν_max+1 add
     ln P_d − ln(λ_s·π r²), r = max_speed·τ + 3√2·max σ_spatial (spatial parameters only), where
     λ_s = λ·Π_{q ≥ n_spatial} (max − min of z_q over every measurement so far, this frame's
-    included; floor 1e-9): the given λ is per unit of the k-dimensional parameter space, its
-    spatial part integrates it over the extent seen of the other parameters (λ_s = λ for
-    k = 2). Measured frames add ln P_d − ln λ − ½ Σ_q ln(2π D_q) − ½ δ over all k parameters."""
+    included; floor √(2π)·σ_q, the resolution of its measurement): the given λ is per unit
+    of the k-dimensional parameter space, its spatial part integrates it over the extent
+    seen of the other parameters (λ_s = λ for k = 2). Measured frames add
+    ln P_d − ln λ − ½ Σ_q ln(2π D_q) − ½ δ over all k parameters."""
     k = len(orders)
     rng = np.random.default_rng(5)
     T, N, pd_, lam, vmax = 30, 4, 0.9, 1e-4, 6.0
@@ -278,7 +285,8 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     r_ls = vmax * np.diff(times) + 3.0 * math.sqrt(2.0) * meas_std[:s].max()
     extent = np.ones(T)  # Π over the non-spatial parameters of their extent seen so far
     for q in range(s, k):
-        extent *= np.maximum(np.maximum.accumulate(z[:, q]) - np.minimum.accumulate(z[:, q]), 1e-9)
+        seen = np.maximum.accumulate(z[:, q]) - np.minimum.accumulate(z[:, q])
+        extent *= np.maximum(seen, math.sqrt(2.0 * math.pi) * meas_std[q])
     lam_s = lam * extent[1:]
     d_start = math.log(pd_) - np.log(lam_s * np.pi * r_ls**2)
     d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
@@ -287,6 +295,129 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
     if k > s:  # the start terms use λ_s, not λ: the check tells them apart
         assert np.all(np.abs(np.log(extent[1 : nu_max + 1])) > 1e-3)
+
+
+@pytest.mark.parametrize("twin", [False, True])
+def test_constant_feature_does_not_inflate_the_start_score(twin):
+    """A non-spatial parameter that never changes (a constant amplitude) has an extent of 0:
+    λ_s takes its floor √(2π)·σ_q, so the start points score ln P_d − ln(λ·√(2π)σ_3·π r²)
+    each (r as above), not ~ −ln(λ·0) (with the former floor of 1e-9, +20.7 per start
+    point). Rust and the NumPy twin alike."""
+    pd_, lam, vmax, meas_std = 0.9, 1e-4, 6.0, np.array([0.5, 0.5, 2.0])
+    tracker_cls = reference.BranchingTracker if twin else kf.BranchingTracker
+    tracker = tracker_cls(
+        3,
+        order=[1, 1, 0],
+        measurement_std=meas_std,
+        p_detect=pd_,
+        clutter_density=lam,
+        max_speed=vmax,
+    )
+    for i in range(4):
+        tracker.update([[10.0 + i, 20.0 - 0.5 * i, 50.0]], time=float(i))
+    score = tracker.tracks()["score"].to_numpy()
+    r_ls = vmax * 1.0 + 3.0 * math.sqrt(2.0) * 0.5
+    lam_s = lam * math.sqrt(2.0 * math.pi) * meas_std[2]
+    d_start = math.log(pd_) - math.log(lam_s * math.pi * r_ls**2)
+    np.testing.assert_allclose(score[:2], [0.0, d_start], rtol=0, atol=1e-9)
+
+
+def bounce_scenario(seed=3, T=20, bounce=10, meas_std=0.3):
+    """x velocity +3 → −3 between frames bounce − 1 and bounce (a wall), y steady at +1."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(T, dtype=float)
+    steps = np.where(np.arange(T) < bounce, 3.0, -3.0)
+    x = 20.0 + np.r_[0.0, np.cumsum(steps[1:])]
+    z = np.stack([x, 10.0 + times], axis=1) + rng.normal(0.0, meas_std, (T, 2))
+    return times, z
+
+
+def greedy_maneuver_path(z, times, model, sigma_m, p_m, memory, beta):
+    """The jump pattern the tracker must follow for one target without clutter, rebuilt from
+    the rules with numpy_kalman: all sequences hold the same measurements, so rule 2 keeps
+    the best-scoring child each frame, ordinary or with a jump (score term ln p_m), among
+    those the window gate admits (the last ``memory`` increments ≤ χ²_β(2n), n of them
+    counted; no jumps at the ν_max + 1 = 2 start points). Returns (jump_std, increments,
+    innovation variances summed as Σ_q ln 2πS_q), increments 0 at the start points."""
+    chi2 = pytest.importorskip("scipy.stats").chi2
+    T = len(z)
+    jump_std = np.zeros(T)
+
+    def run(js):
+        incs, log_var = np.zeros(T), np.zeros(T)
+        for q in range(2):
+            _, inc, var = numpy_kalman(z[:, q], times, 1, js=js, **model)
+            incs += np.nan_to_num(inc)
+            log_var += np.nan_to_num(np.log(2 * np.pi * var))
+        incs[:2] = 0.0
+        return incs, log_var
+
+    for i in range(2, T):
+        best = None
+        for jump in (0.0, sigma_m):
+            jump_std[i] = jump
+            incs, log_var = run(jump_std)
+            window = incs[max(2, i - memory + 1) : i + 1]
+            if window.sum() > chi2.ppf(beta, 2 * len(window)):
+                continue
+            term = -0.5 * log_var[i] - 0.5 * incs[i] + (math.log(p_m) if jump else 0.0)
+            if best is None or term > best[0]:
+                best = (term, jump)
+        assert best is not None, f"no child admitted at frame {i}"
+        jump_std[i] = best[1]
+    return (jump_std, *run(jump_std))
+
+
+@pytest.mark.parametrize("maneuver", [True, False])
+def test_maneuver_branch_follows_a_bounce(maneuver):
+    """A target bouncing off a wall, measured with std 0.3, no clutter. With
+    ``maneuver_std`` the tracker keeps one sequence through the bounce, and it is the Kalman
+    filter with the velocity jumps (P_pred += σ_m² g_m g_mᵀ) where the gate and rule 2 put
+    them (greedy_maneuver_path, written independently of both twins): states, index and
+    score, each jump's measured-frame term adding ln maneuver_prob. Here that is a jump at
+    the bounce and one the frame after: the bounce's large increment stays in the window
+    and leaves the ordinary child too little of the gate (the single jump would score
+    higher over the whole track). Without it, the ordinary gate refuses the bounce and no
+    sequence spans it."""
+    T, bounce, N, pd_, lam, vmax, beta = 20, 10, 4, 0.9, 1e-4, 6.0, 0.99
+    sigma_m, p_m, meas_std, process_std = 1.5, 1e-3, 0.3, 0.1
+    times, z = bounce_scenario(T=T, bounce=bounce, meas_std=meas_std)
+    extra = dict(maneuver_std=sigma_m, maneuver_prob=p_m) if maneuver else {}
+    tracker = kf.BranchingTracker(
+        2,
+        process_std=process_std,
+        measurement_std=meas_std,
+        memory=N,
+        p_detect=pd_,
+        clutter_density=lam,
+        max_speed=vmax,
+        confidence=beta,
+        **extra,
+    )
+    for zi, t in zip(z, times):
+        tracker.update(zi[None, :], time=t)
+    tracks = tracker.tracks()
+    if not maneuver:
+        spans = tracks.groupby("particle").detection.agg(["min", "max"])
+        assert not ((spans["min"] < bounce) & (spans["max"] >= bounce)).any()
+        return
+    assert tracks.particle.nunique() == 1
+    assert np.array_equal(tracks.detection.to_numpy(), np.arange(T))
+    model = dict(process_std=process_std, r=meas_std**2, max_speed=vmax)
+    jump_std, incs, log_var = greedy_maneuver_path(z, times, model, sigma_m, p_m, N, beta)
+    assert np.flatnonzero(jump_std).tolist() == [bounce, bounce + 1]
+    for q, name in enumerate(tracker.names):
+        states, _, _ = numpy_kalman(z[:, q], times, 1, js=jump_std, **model)
+        np.testing.assert_allclose(tracks[name].to_numpy(), states[:, 0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(tracks[f"{name}_d1"].to_numpy(), states[:, 1], atol=1e-9)
+    index = np.array([incs[max(0, i - N + 1) : i + 1].sum() for i in range(T)])
+    np.testing.assert_allclose(tracks["index"].to_numpy(), index, rtol=0, atol=1e-9)
+    r_ls = vmax * 1.0 + 3.0 * math.sqrt(2.0) * meas_std
+    d_start = math.log(pd_) - math.log(lam * np.pi * r_ls**2)
+    d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
+    d_meas += np.where(jump_std[1:] > 0, math.log(p_m), 0.0)
+    score = np.r_[0.0, np.cumsum(np.where(np.arange(1, T) <= 1, d_start, d_meas))]
+    np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
 
 
 # ------------------------------------------------------------------------------- 3. χ² index

@@ -98,7 +98,9 @@ class BranchingTracker:
     p_detect : detection probability used by the score.
     clutter_density : clutter points per unit of parameter space per frame; ``None`` =
         estimated from the measurement counts and their bounding box. The score of a start
-        uses its spatial part: λ times the extent seen so far of the non-spatial parameters.
+        uses its spatial part: λ times the extent seen so far of the non-spatial parameters,
+        each floored at its measurement's resolution √(2π)·measurement_std (a constant
+        parameter does not inflate the start scores).
     max_speed : maximum speed (spatial units per time) between the first ν+1 points of a
         sequence (the least-squares start is gated by it).
     n_confirm, confirm_llr, confirm_window : a sequence is confirmed once it has ``n_confirm``

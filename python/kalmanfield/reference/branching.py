@@ -68,7 +68,9 @@ Sequences are ranked by the standard track score (log-likelihood ratio of "targe
 
 (λ = clutter density in the k-dimensional parameter space, λ_s its spatial part: a given λ
 times the extent seen so far of the non-spatial parameters (max − min over every measurement,
-this frame's included, floored at 1e-9); if not given, both are estimated as the mean number of
+this frame's included, floored at the resolution √(2π)·σ_q of its measurement, the width of
+its noise law: the extent ~0 of a constant parameter would otherwise make λ_s ~0 and inflate
+every start point's score); if not given, both are estimated as the mean number of
 measurements per frame over the bounding box seen so far, its spans floored at 1.)
 It is a monotone function of the index for equal lengths and miss patterns, grows with the
 length of a good sequence and falls with misses, clutter-like jumps and a high clutter density.
@@ -513,7 +515,7 @@ class BranchingTracker:
         """(λ, λ_s): clutter density in parameter space and in the spatial sub-space;
         ``measured`` = all measurements so far, this frame's included."""
         if self.lam is not None:
-            span = np.maximum(self._hi - self._lo, 1e-9)
+            span = np.maximum(self._hi - self._lo, np.sqrt(2.0 * np.pi * self.R))
             extra = float(np.prod(span[self.s :])) if self.k > self.s else 1.0
             return self.lam, self.lam * extra
         span = np.maximum(self._hi - self._lo, 1.0)

@@ -214,13 +214,17 @@ impl BranchingTracker {
     }
 
     /// (λ, λ_s): clutter density in parameter space and in the spatial sub-space;
-    /// `measured` = all measurements so far, this frame's included.
+    /// `measured` = all measurements so far, this frame's included. With a given λ, each
+    /// non-spatial extent is floored at the measurement's resolution √(2π)·σ_q (the width
+    /// of its noise law, 1 / peak density): an extent seen of ~0 would otherwise make λ_s
+    /// ~0 and add ~ −ln λ_s to the score of every start point.
     fn density(&self, measured: i64) -> (f64, f64) {
         let s = self.cfg.n_spatial;
         let k = self.k();
         if let Some(lam) = self.cfg.clutter_density {
+            let sqrt_2pi = (2.0 * std::f64::consts::PI).sqrt();
             let extra: f64 = (s..k)
-                .map(|q| (self.hi[q] - self.lo[q]).max(1e-9))
+                .map(|q| (self.hi[q] - self.lo[q]).max(sqrt_2pi * self.cfg.measurement_std[q]))
                 .product();
             return (lam, lam * extra);
         }
