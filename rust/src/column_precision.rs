@@ -40,26 +40,21 @@ pub(crate) struct ColumnPrecision {
 }
 
 impl ColumnPrecision {
-    /// The precision of the axis `y` whose first n rows' correlation has the Cholesky
-    /// factor `lower` (padded with the identity beyond n, as `RowDynamics::whitened`'s).
-    pub(crate) fn new(y: &AxisModel, lower: &Small) -> Result<Self> {
+    /// The precision of the axis `y` whose first n rows' correlation R_y[:n,:n] = L Lᵀ has
+    /// the inverse factor `whitening` T = L⁻¹ (`RowDynamics::whitened`'s).
+    pub(crate) fn new(y: &AxisModel, whitening: &Small) -> Self {
         let order = y.order();
-        let whitening = lower
-            .solve_lower_triangular(&Small::identity())
-            .ok_or_else(|| {
-                crate::error::FieldError::InvalidParameter("the row correlation is singular".into())
-            })?;
         let mut difference = [0.0; MAX_ROW_ORDER + 1];
         for (i, a) in y.ar_coefficients().iter().enumerate() {
             difference[order - 1 - i] = -a;
         }
         difference[order] = 1.0;
-        Ok(Self {
+        Self {
             order,
-            whitening,
+            whitening: *whitening,
             difference,
             innovation: y.beta_tilde_sq(),
-        })
+        }
     }
 
     /// I + c R_y⁻¹ for `height` rows (bandwidth n).
@@ -110,8 +105,8 @@ mod tests {
 
     fn precision(rho: f64, order: usize) -> ColumnPrecision {
         let y = AxisModel::new(rho, order).unwrap();
-        let lower = RowDynamics::new(&y).whitened().unwrap().readout;
-        ColumnPrecision::new(&y, &lower).unwrap()
+        let whitening = RowDynamics::new(&y).whitened().unwrap().whitening;
+        ColumnPrecision::new(&y, &whitening)
     }
 
     fn correlation(rho: f64, order: usize, height: usize) -> DMatrix<f64> {

@@ -60,6 +60,8 @@ pub(crate) struct RowDynamics {
     pub(crate) prior: Small,
     /// Row i: the observation vector of the image row that state component i holds.
     pub(crate) readout: Small,
+    /// The readout's inverse T (v' = T v; the identity in the rows' own basis).
+    pub(crate) whitening: Small,
 }
 
 /// Per step t (row t+1) and mode j: the gain K (n) and the smoother gain J_t (n×n, linking
@@ -90,7 +92,7 @@ impl VectorRowFilter {
         let mode_var = modes.values.iter().map(|l| signal * l).collect();
         let dynamics = RowDynamics::new(y).whitened()?;
         Ok(Self {
-            column: ColumnPrecision::new(y, &dynamics.readout)?,
+            column: ColumnPrecision::new(y, &dynamics.whitening),
             dynamics,
             noise_var,
             modes,
@@ -424,6 +426,7 @@ impl RowDynamics {
             innovation,
             prior,
             readout: Small::identity(),
+            whitening: Small::identity(),
         }
     }
 
@@ -457,6 +460,7 @@ impl RowDynamics {
             innovation: (t0 * t0.transpose()) * self.innovation[(0, 0)],
             prior: identity,
             readout: lower,
+            whitening,
         })
     }
 
