@@ -620,6 +620,21 @@ def test_bad_measurements_raise_and_change_nothing(scenario, z, error, match):
     pd.testing.assert_frame_equal(tracker.tracks(), twin.tracks(), check_exact=True)
 
 
+def test_wide_spread_of_measurements_keeps_the_score_finite():
+    """Three or more parameters spread over ±1e80: the estimated clutter density's box
+    (Π of the spans, 1e482) overflowed, λ became 0 and every score +inf. The densities are
+    now taken as logarithms (sums of the spans' logarithms); the twin agrees."""
+    for k in (3, 4):
+        frames = [np.array([[-1e80] * k, [1e80] * k])]
+        frames += [np.array([[10.0 + t, 20.0] + [5.0] * (k - 2)]) for t in range(1, 8)]
+        tracker = run(kf.BranchingTracker, frames, k=k)
+        tracks = tracker.tracks()
+        assert len(tracks) and np.isfinite(tracks.score).all()
+        assert np.isfinite(tracker.tracks(online=True).score).all()
+        twin = run(reference.BranchingTracker, frames, k=k).tracks()
+        np.testing.assert_allclose(twin.score.to_numpy(), tracks.score.to_numpy(), rtol=1e-12)
+
+
 def test_time_must_increase():
     tracker = kf.BranchingTracker(2)
     tracker.update([[1.0, 2.0]], time=5.0)
@@ -629,6 +644,9 @@ def test_time_must_increase():
         (np.nan, ValueError, "finite"),
         (np.inf, ValueError, "finite"),
         ("6", TypeError, "real number"),
+        (1e200, ValueError, r"time must lie within ±1e150"),
+        # q² τ³ of the default process_std overflows: refused, not NaN tracks
+        (1e140, ValueError, "time step 1e140 is too long"),
     ]:
         with pytest.raises(error, match=match):
             tracker.update([[1.0, 2.0]], time=t)
@@ -679,6 +697,17 @@ def test_time_must_increase():
         (dict(seed=-1), ValueError, "seed"),
         (dict(maneuver_prob=0.0), ValueError, "maneuver_prob"),
         (dict(final_llr=np.inf), ValueError, "final_llr"),
+        (dict(seed=2**64), ValueError, r"seed must be in \[0, 2\*\*64\)"),
+        (dict(seed=1.0), TypeError, "seed"),
+        # beyond 256 the hypotheses' keys are absurd (2**62 had panicked, 2**32 aborted)
+        (dict(merge_depth=257), ValueError, "merge_depth must lie in 1..=256"),
+        (dict(merge_depth=2**62), ValueError, "merge_depth must lie in 1..=256"),
+        # scales the filters square (their states had overflowed and could not be pickled)
+        (dict(max_speed=1e300), ValueError, "max_speed must be at most 1e100"),
+        (dict(measurement_std=1e160), ValueError, "measurement_std must be at most"),
+        (dict(process_std=1e160), ValueError, "process_std must be at most"),
+        (dict(dt=1e200), ValueError, "dt must be at most"),
+        (dict(maneuver_std=1e200), ValueError, "maneuver_std must be at most"),
     ],
 )
 def test_bad_configuration_raises(kwargs, error, match):

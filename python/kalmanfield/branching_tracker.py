@@ -36,6 +36,7 @@ import pandas as pd
 
 from . import _core
 from ._validation import (
+    SeedLike,
     nonnegative_int,
     positive_float,
     positive_int,
@@ -43,6 +44,7 @@ from ._validation import (
     real_array,
     real_number,
     real_value,
+    resolve_seed,
 )
 
 __all__ = ["BranchingTracker"]
@@ -90,7 +92,8 @@ class BranchingTracker:
     order : ν per parameter (scalar or one per parameter, ≤ 4); default 1 (nearly constant
         velocity).
     process_std : std of the white (ν+1)-th derivative per parameter (px/frame² for ν = 1).
-    measurement_std : measurement noise std per parameter.
+    measurement_std : measurement noise std per parameter. The stds, ``dt``, ``max_speed``
+        and ``maneuver_std`` must be at most 1e100 (the filters square them).
     confidence : β of the χ² index test (SPEC §3.2).
     memory : N, number of index increments kept (sliding memory; 1…256).
     max_misses : longest run of coasted (missed) frames of a sequence.
@@ -112,7 +115,7 @@ class BranchingTracker:
         clutter at no measured loss (README, tracking tables).
     max_per_tree, max_hypotheses, max_seeds : hypothesis limits (per track tree, global, new
         sequences per frame).
-    merge_depth : D, last measurements that identify a sequence's future (pruning).
+    merge_depth : D, last measurements that identify a sequence's future (pruning; 1…256).
     maneuver_std, maneuver_prob : optional velocity-jump branch per parameter (not in [K93]):
         a second child per gated measurement with an extra velocity jump of that std and prior
         probability; it lets sequences survive sharp turns (targets bouncing off borders).
@@ -121,7 +124,8 @@ class BranchingTracker:
     selection : ``"llr"`` (default), or the literal rules ``"index_per_dof"`` / ``"pvalue"``.
     names : column names of the parameters in :meth:`tracks` (default x, y, then p2, p3…).
     seed : seed of the deterministic subset of new starts when there are more than
-        ``max_seeds``.
+        ``max_seeds``: an int in [0, 2**64), or a numpy Generator / None (OS entropy) as for
+        the fields.
 
     Configuration used for the anchor benchmark (20 targets, 50 clutter points per frame,
     targets bouncing off the borders): ``process_std=0.1, measurement_std=0.5,
@@ -160,7 +164,7 @@ class BranchingTracker:
         max_shared: int = 2,
         selection: str = "llr",
         names: Sequence[str] | None = None,
-        seed: int = 0,
+        seed: SeedLike = 0,
     ) -> None:
         k = positive_int(n_params, "n_params")
         s = min(k, 2) if n_spatial is None else positive_int(n_spatial, "n_spatial")
@@ -178,9 +182,7 @@ class BranchingTracker:
         names = _default_names(k, s) if names is None else [str(n) for n in names]
         if len(names) != k or len(set(names)) != k:
             raise ValueError(f"names must be {k} distinct column names, got {names}")
-        seed = nonnegative_int(seed, "seed")
-        if seed >= 1 << 64:
-            raise ValueError("seed must be below 2**64")
+        seed = resolve_seed(seed)
         self._config: dict[str, Any] = dict(
             order=orders,
             process_std=_per_param(process_std, k, "process_std"),
@@ -261,7 +263,9 @@ class BranchingTracker:
         empty frame is ``np.empty((0, k))`` or ``[]``), or a DataFrame holding the columns
         :attr:`names`. ``time``: the frame's time (default: previous time + ``dt``; must
         increase). NaN/inf measurements, measurements beyond ±``MAX_MEASUREMENT`` (1e150), a
-        wrong column count or a non-increasing time raise ValueError before anything changes.
+        wrong column count, a non-increasing time, a time beyond ±1e150 or a time step so long
+        that the predicted covariances overflow float64 raise ValueError before anything
+        changes.
         """
         k = self.n_params
         if isinstance(measurements, pd.DataFrame):

@@ -194,8 +194,8 @@ def splitmix64(x: np.ndarray) -> np.ndarray:
         return z ^ (z >> np.uint64(31))
 
 
-def _ball_volume(r: np.ndarray, dim: int) -> np.ndarray:
-    return math.pi ** (dim / 2) / math.gamma(dim / 2 + 1) * r**dim
+def _log_ball_volume(r: np.ndarray, dim: int) -> np.ndarray:
+    return math.log(math.pi ** (dim / 2) / math.gamma(dim / 2 + 1)) + dim * np.log(r)
 
 
 def _ball_pairs(points: np.ndarray, centres: np.ndarray, radii: np.ndarray):
@@ -511,16 +511,17 @@ class BranchingTracker:
             start=zi,
         )
 
-    def _density(self, measured: int) -> tuple[float, float]:
-        """(λ, λ_s): clutter density in parameter space and in the spatial sub-space;
+    def _log_density(self, measured: int) -> tuple[float, float]:
+        """(ln λ, ln λ_s): logarithms of the clutter density in parameter space and in the
+        spatial sub-space (sums of logarithms: products of wide spans overflow);
         ``measured`` = all measurements so far, this frame's included."""
         if self.lam is not None:
             span = np.maximum(self._hi - self._lo, np.sqrt(2.0 * np.pi * self.R))
-            extra = float(np.prod(span[self.s :])) if self.k > self.s else 1.0
-            return self.lam, self.lam * extra
-        span = np.maximum(self._hi - self._lo, 1.0)
-        rate = max(measured / max(self.frame + 1, 1), 1.0)
-        return rate / float(np.prod(span)), rate / float(np.prod(span[: self.s]))
+            extra = float(np.log(span[self.s :]).sum())
+            return math.log(self.lam), math.log(self.lam) + extra
+        ln_span = np.log(np.maximum(self._hi - self._lo, 1.0))
+        ln_rate = math.log(max(measured / max(self.frame + 1, 1), 1.0))
+        return ln_rate - float(ln_span.sum()), ln_rate - float(ln_span[: self.s].sum())
 
     def _state_flat(self, X: list) -> np.ndarray:
         return np.concatenate(X, axis=1) if X else np.zeros((0, 0))
@@ -584,7 +585,7 @@ class BranchingTracker:
     def _branch(self, h: _Hyps, Z: np.ndarray, tau: float, t: float, gid0: int):
         """Predict, gate and branch every live sequence (SPEC §3.1, §3.2, §3.3 step 2)."""
         k, s, H = self.k, self.s, h.size
-        lam, lam_s = self._density(gid0 + len(Z))
+        ln_lam, ln_lam_s = self._log_density(gid0 + len(Z))
         Xp, Pp, S, Pm, Sm = [], [], np.empty((H, k)), [], np.empty((H, k))
         for q in range(k):
             F, Q = motion_matrices(self.order[q], tau, self.sigma_w[q])
@@ -638,13 +639,13 @@ class BranchingTracker:
                 lsa = ls_p[ok]
                 dl = (
                     math.log(self.pd)
-                    - math.log(lam)
+                    - ln_lam
                     - 0.5 * np.log(2 * math.pi * Sa).sum(1)
                     - 0.5 * inc_a
                     + pen
                 )
-                vol = _ball_volume(r_ls[a], s) * lam_s
-                dl = np.where(lsa, math.log(self.pd) - np.log(vol), dl)
+                ln_vol = _log_ball_volume(r_ls[a], s) + ln_lam_s
+                dl = np.where(lsa, math.log(self.pd) - ln_vol, dl)
                 inc_a = np.where(lsa, np.nan, inc_a)
                 parts.append((a, gid0 + b, Xn, Pn, inc_a, dl))
         can_miss = h.miss < self.max_misses

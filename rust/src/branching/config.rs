@@ -4,8 +4,17 @@ use super::motion::MAX_MOTION_ORDER;
 use crate::chi_squared::chi_squared_quantile;
 use crate::error::{FieldError, Result};
 
-/// Most index increments a sequence keeps (`memory`; 3–10 in use, SPEC §3.2).
+/// Most index increments a sequence keeps (`memory`; 3–10 in use, SPEC §3.2), and most
+/// measurements that identify a sequence's future (`merge_depth`; 2–5 in use).
 pub const MAX_MEMORY: usize = 256;
+
+/// Largest noise std, speed and default time step accepted: the filters square them (and
+/// the start's velocity variance is (10·max_speed)²), so 1e100 keeps every covariance and
+/// the saved state finite with room to spare.
+pub const MAX_SCALE: f64 = 1e100;
+
+/// Largest |time| accepted (the measurements' bound, `MAX_MEASUREMENT` of the Python class).
+pub const MAX_TIME: f64 = 1e150;
 
 /// Ranking of the final answer (SPEC §3.3 step 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,6 +85,18 @@ fn check_positive(value: f64, name: &str) -> Result<()> {
             "{name} must be positive and finite, got {value}"
         )))
     }
+}
+
+/// A positive scale (std, speed, time step) of at most [`MAX_SCALE`].
+fn check_scale(value: f64, name: &str) -> Result<()> {
+    check_positive(value, name)?;
+    if value > MAX_SCALE {
+        return Err(invalid(format!(
+            "{name} must be at most {MAX_SCALE:e} (the filters square it; rescale the \
+             parameters), got {value}"
+        )));
+    }
+    Ok(())
 }
 
 impl TrackerConfig {
@@ -171,9 +192,12 @@ impl TrackerConfig {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(invalid(format!("{name} must be finite and >= 0, got {v}")));
             }
+            if v > 0.0 {
+                check_scale(v, name)?;
+            }
         }
         for &v in &self.measurement_std {
-            check_positive(v, "measurement_std")?;
+            check_scale(v, "measurement_std")?;
         }
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
             return Err(invalid(format!(
@@ -188,7 +212,7 @@ impl TrackerConfig {
                 self.memory
             )));
         }
-        check_positive(self.dt, "dt")?;
+        check_scale(self.dt, "dt")?;
         if !(self.p_detect > 0.0 && self.p_detect < 1.0) {
             return Err(invalid(format!(
                 "p_detect must lie strictly between 0 and 1, got {}",
@@ -198,7 +222,13 @@ impl TrackerConfig {
         if let Some(lam) = self.clutter_density {
             check_positive(lam, "clutter_density")?;
         }
-        check_positive(self.max_speed, "max_speed")?;
+        check_scale(self.max_speed, "max_speed")?;
+        if self.merge_depth > MAX_MEMORY {
+            return Err(invalid(format!(
+                "merge_depth must lie in 1..={MAX_MEMORY}, got {}",
+                self.merge_depth
+            )));
+        }
         for (value, name) in [
             (self.n_confirm, "n_confirm"),
             (self.confirm_window, "confirm_window"),
@@ -217,7 +247,7 @@ impl TrackerConfig {
                 return Err(invalid(format!("maneuver_std needs {k} values")));
             }
             for &v in man {
-                check_positive(v, "maneuver_std")?;
+                check_scale(v, "maneuver_std")?;
             }
             if !(self.maneuver_prob > 0.0 && self.maneuver_prob < 1.0) {
                 return Err(invalid(format!(

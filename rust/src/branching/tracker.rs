@@ -1,7 +1,7 @@
 //! The branching tracker: per frame, predict, gate and branch every live sequence, prune,
 //! start new sequences (SPEC §3.1–3.3).
 
-use super::config::TrackerConfig;
+use super::config::{TrackerConfig, MAX_TIME};
 use super::hypotheses::{Hypotheses, Widths, MISS, NONE};
 use super::motion::{motion_matrices, predict, update};
 use super::nodes::{remapped, Nodes};
@@ -69,6 +69,14 @@ struct Prediction {
     /// With the manoeuvre (velocity-jump) branch: its P and S.
     p_man: Vec<f64>,
     s_man: Vec<f64>,
+}
+
+impl Prediction {
+    fn is_finite(&self) -> bool {
+        [&self.x, &self.p, &self.s, &self.p_man, &self.s_man]
+            .iter()
+            .all(|v| v.iter().all(|e| e.is_finite()))
+    }
 }
 
 /// One frame's measurements and clock.
@@ -163,6 +171,11 @@ impl BranchingTracker {
                 "time must be finite, got {t}"
             )));
         }
+        if t.abs() > MAX_TIME {
+            return Err(FieldError::InvalidParameter(format!(
+                "time must lie within ±{MAX_TIME:e}, got {t}"
+            )));
+        }
         if let Some(prev) = self.t {
             if t <= prev {
                 return Err(FieldError::InvalidParameter(format!(
@@ -171,6 +184,13 @@ impl BranchingTracker {
             }
         }
         let tau = self.t.map_or(0.0, |prev| t - prev);
+        let prediction = self.predict_all(&self.h, tau, t);
+        if !prediction.is_finite() {
+            return Err(FieldError::InvalidParameter(format!(
+                "the time step {tau:e} is too long for the motion model: the predicted \
+                 covariances overflow float64 (rescale the time or the parameters)"
+            )));
+        }
         let m = z.len() / k;
         let gid0 = self.n_meas;
         self.frame_offsets.push(gid0);
@@ -190,7 +210,7 @@ impl BranchingTracker {
         let mut h = if h.is_empty() {
             h
         } else {
-            let (children, ended) = self.branch(&h, &input, tau);
+            let (children, ended) = self.branch(&h, &input, &prediction);
             stats.children = children.len();
             self.terminate(&h, &ended);
             let children = prune(self, children);
@@ -213,26 +233,27 @@ impl BranchingTracker {
         Ok(())
     }
 
-    /// (λ, λ_s): clutter density in parameter space and in the spatial sub-space;
-    /// `measured` = all measurements so far, this frame's included. With a given λ, each
-    /// non-spatial extent is floored at the measurement's resolution √(2π)·σ_q (the width
-    /// of its noise law, 1 / peak density): an extent seen of ~0 would otherwise make λ_s
-    /// ~0 and add ~ −ln λ_s to the score of every start point.
-    fn density(&self, measured: i64) -> (f64, f64) {
+    /// (ln λ, ln λ_s): logarithms of the clutter density in parameter space and in the
+    /// spatial sub-space (sums of logarithms: the products of spans overflow for k ≥ 3 wide
+    /// ones); `measured` = all measurements so far, this frame's included. With a given λ,
+    /// each non-spatial extent is floored at the measurement's resolution √(2π)·σ_q (the
+    /// width of its noise law, 1 / peak density): an extent seen of ~0 would otherwise make
+    /// λ_s ~0 and add ~ −ln λ_s to the score of every start point.
+    fn log_density(&self, measured: i64) -> (f64, f64) {
         let s = self.cfg.n_spatial;
         let k = self.k();
+        let ln_span = |q: usize, floor: f64| (self.hi[q] - self.lo[q]).max(floor).ln();
         if let Some(lam) = self.cfg.clutter_density {
             let sqrt_2pi = (2.0 * std::f64::consts::PI).sqrt();
             let extra: f64 = (s..k)
-                .map(|q| (self.hi[q] - self.lo[q]).max(sqrt_2pi * self.cfg.measurement_std[q]))
-                .product();
-            return (lam, lam * extra);
+                .map(|q| ln_span(q, sqrt_2pi * self.cfg.measurement_std[q]))
+                .sum();
+            return (lam.ln(), lam.ln() + extra);
         }
-        let span: Vec<f64> = (0..k).map(|q| (self.hi[q] - self.lo[q]).max(1.0)).collect();
         let rate = (measured as f64 / (self.frame + 1).max(1) as f64).max(1.0);
-        let all: f64 = span.iter().product();
-        let spatial: f64 = span[..s].iter().product();
-        (rate / all, rate / spatial)
+        let spatial: f64 = (0..s).map(|q| ln_span(q, 1.0)).sum();
+        let other: f64 = (s..k).map(|q| ln_span(q, 1.0)).sum();
+        (rate.ln() - spatial - other, rate.ln() - spatial)
     }
 
     fn predict_all(&self, h: &Hypotheses, tau: f64, t: f64) -> Prediction {
@@ -287,11 +308,15 @@ impl BranchingTracker {
 
     /// Predict, gate and branch every live sequence (SPEC §3.1, §3.2, §3.3 step 2). Returns
     /// the children (with the parent node in `node`) and the sequences that end.
-    fn branch(&self, h: &Hypotheses, input: &FrameInput, tau: f64) -> (Hypotheses, Vec<usize>) {
+    fn branch(
+        &self,
+        h: &Hypotheses,
+        input: &FrameInput,
+        pr: &Prediction,
+    ) -> (Hypotheses, Vec<usize>) {
         let (k, s, w, n) = (self.k(), self.cfg.n_spatial, self.w, h.len());
         let cfg = &self.cfg;
-        let (lam, lam_s) = self.density(input.gid0 + (input.z.len() / k) as i64);
-        let pr = self.predict_all(h, tau, input.t);
+        let (ln_lam, ln_lam_s) = self.log_density(input.gid0 + (input.z.len() / k) as i64);
         let nu_max = cfg.nu_max() as i64;
         let r_max = (0..s)
             .map(|q| cfg.measurement_std[q].powi(2))
@@ -330,7 +355,7 @@ impl BranchingTracker {
         let n_variants = if man { 2 } else { 1 };
         let mut children = Hypotheses::with_capacity(n_variants * pairs.len() + n, w);
         let mut has_hit = vec![false; n];
-        let ball = PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0);
+        let ln_ball = (PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0)).ln();
         let variants: &[(bool, f64)] = if man {
             &[(false, 0.0), (true, cfg.maneuver_prob.ln())]
         } else {
@@ -376,10 +401,10 @@ impl BranchingTracker {
                     );
                 }
                 let dl = if ls {
-                    ln_pd - (ball * r_ls[i].powi(s as i32) * lam_s).ln()
+                    ln_pd - (ln_ball + s as f64 * r_ls[i].ln() + ln_lam_s)
                 } else {
                     let log_s: f64 = sv.iter().map(|&v| (2.0 * PI * v).ln()).sum();
-                    ln_pd - lam.ln() - 0.5 * log_s - 0.5 * inc + penalty
+                    ln_pd - ln_lam - 0.5 * log_s - 0.5 * inc + penalty
                 };
                 self.finish_hit(
                     &mut children,
