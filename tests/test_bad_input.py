@@ -83,6 +83,49 @@ def test_bad_shapes(shape, exc, match):
         MODEL.sample(shape, seed=0)
 
 
+def test_starts_and_recursions_float64_cannot_resolve_are_refused():
+    """Positive but wrong: the start's prediction errors of (4, 0.995) were off by 23 % (60-
+    digit Levinson), of (4, 0.999) ×7700 (samples reached 15 σ), of (3, 0.99999) ×2.5e4
+    (56 σ). Both twins refuse them; (4, 0.99) (its start off by 0.25 %) is kept. (The
+    rounding-gain check of float64, 1/β̃ ≤ 4.5e10, binds after the start's in every case
+    seen: Rust unit test.)"""
+    for rho, n, match in [
+        (0.995, 4, "4 ulps"),
+        (0.999, 4, "4 ulps"),
+        (0.98, 7, "4 ulps"),
+        (0.99999, 3, "4 ulps"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            kf.ARFieldModel(rho, n).sample(64, seed=0)
+        with pytest.raises(ValueError, match="beyond float64|rounding of float64"):
+            ref.stationary_start(rho, n)
+    assert np.isfinite(kf.ARFieldModel(0.99, 4).sample(64, seed=0)).all()
+
+
+def test_float32_fields_of_smooth_models_are_made_in_float64():
+    """(0.99, 4) in single-precision recursions drifted to inf (1/β̃ = 4e6 amplifies float32
+    rounding); such fields are now made in float64 and rounded once, streams refused."""
+    model = kf.ARFieldModel([0.99, 0.9], [4, 2])
+    x64 = model.sample((64, 48), seed=3)
+    x32 = model.sample((64, 48), seed=3, dtype=np.float32)
+    assert x32.dtype == np.float32
+    np.testing.assert_array_equal(x32, x64.astype(np.float32))
+    with pytest.raises(ValueError, match="float32.*use float64"):
+        kf.FieldStream(model, (8,), seed=0, dtype=np.float32)
+    assert kf.FieldStream(model, (8,), seed=0).next_frame().dtype == np.float64
+
+
+def test_sigma_and_rho_at_float64s_edges_are_refused():
+    for sigma in (1e154, 1.7e308, 1e-154):  # σ² overflowed (correlation inf / NaN) or underflowed
+        with pytest.raises(ValueError, match=r"sigma must lie within \[2\^-510, 2\^510\]"):
+            kf.ARFieldModel(0.5, 1, sigma)
+    model = kf.ARFieldModel(0.5, 1, 3e153)
+    assert np.isfinite(model.correlation([[0.0], [1e10]])).all()
+    with pytest.raises(ValueError, match="rho must be at least"):  # anisotropy was NaN
+        kf.ARFieldModel([1e-310, 0.5], [1, 1])
+    assert np.isfinite(kf.ARFieldModel([1e-300, 0.5], [1, 1]).anisotropy())
+
+
 def test_a_stationary_start_beyond_float64_is_refused_not_nan():
     # ρ = 0.99 with multiplicity 8: a prediction error of the start rounds to < 0 (every
     # sample was NaN); the model itself stays usable (correlation, identification results)
@@ -249,7 +292,7 @@ def test_noise_ratios_outside_float64s_normal_range_are_refused():
         with pytest.raises(ValueError, match="normal range"):
             cls(model, 1e-320, 8)
         with pytest.raises(ValueError, match="normal range"):
-            cls(kf.ARFieldModel([0.9, 0.8], [1, 1], sigma=1e-160), 1e300, 8)
+            cls(kf.ARFieldModel([0.9, 0.8], [1, 1], sigma=1e-153), 1e300, 8)
         # at σ_θ² = tiny the estimate is the image (to rounding: gains of 1 − O(tiny))
         np.testing.assert_allclose(cls(model, tiny, 8).filter(z), z, rtol=0, atol=1e-14)
     # per-pixel: (it was refused as "weights must be finite", weights the user never gave)
@@ -267,6 +310,9 @@ def test_overflowing_estimates_are_refused_not_inf():
         kf.segment(blob, 1.0)
     with pytest.raises(ValueError, match="moments overflow"):
         kf.segment(np.stack([blob, blob]), 1.0)
+    # a threshold far below ordinary pixels: the message names it
+    with pytest.raises(ValueError, match="moments overflow.*threshold"):
+        kf.segment(np.full((2, 2), 255, np.uint8), -1e308)
     # 1e296 is within range: the 20 × 20 block's centroid, area and mean amplitude
     found = kf.segment(blob * 1e-10, 1.0)
     assert len(found) == 1 and found.area[0] == 400

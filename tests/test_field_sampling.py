@@ -23,12 +23,15 @@ def models_and_shapes(draw):
 def test_rust_equals_reference_on_identical_noise(model_shape, seed):
     """Includes 1×k lines and grids smaller than the order (only boundary models run).
     Tolerance: for ρ near 1 and order 4 the boundary (Levinson) coefficients amplify the
-    1e-16 differences between the two evaluations of R(k) to ~1e-10."""
+    1e-16 differences between the two evaluations of R(k): up to 2.4e-10 at ρ = 0.9,
+    4.5e-10 at 0.93 and 5.3e-9 at 0.95 (200 seeds each, 9 × 3 grids), so 1e-8 there."""
     model, shape = model_shape
     noise = np.random.default_rng(seed).standard_normal(shape)
     got = model.sample(shape, noise=noise)
     want = ref.sample(model.rho, model.order, model.sigma, noise)
-    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * model.sigma)
+    steep = any(n == 4 and r > 0.93 for r, n in zip(model.rho, model.order))
+    tol = 1e-8 if steep else 1e-9
+    np.testing.assert_allclose(got, want, rtol=tol, atol=tol * model.sigma)
 
 
 def test_large_grid_equals_reference_in_parallel():

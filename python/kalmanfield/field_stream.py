@@ -32,6 +32,10 @@ class FieldStream:
     Frame t draws the same noise as slice t of ``model.sample((T, *frame_shape), seed)``, so
     the two agree. It pickles at any point; the
     unpickled copy continues bit-identically.
+
+    A float32 stream runs its recursions in single precision, so it is refused (ValueError:
+    use float64) for models whose rounding errors would pass ~1e-3 σ there (1/β̃ > 84 on an
+    axis; :meth:`ARFieldModel.sample` falls back to float64 for those instead).
     """
 
     def __init__(
@@ -49,6 +53,9 @@ class FieldStream:
         self.model = model
         self.frame_shape = grid_shape(frame_shape, model.ndim - 1, "frame_shape")
         self.dtype = float_dtype(dtype, model.sigma)
+        if self.dtype == np.float32:  # the kernel's precision check, on one element
+            probe = np.empty((1,) * model.ndim, dtype=self.dtype)
+            model._core.sample_into(probe, 0, None, 1)
         self.seed = resolve_seed(seed)
         self.threads = thread_count(threads)
         self.time = 0

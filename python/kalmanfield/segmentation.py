@@ -84,8 +84,8 @@ def segment(
         are; bool
         becomes uint8; other integer types (and float16, longdouble) are converted to float64
         (integers beyond 2⁵³ are rounded). Complex, object and string arrays are refused
-        (TypeError); NaN or infinite pixels, and pixels so large (≳ 1e300) that the segment
-        moments overflow, are refused (ValueError).
+        (TypeError); NaN or infinite pixels, and pixels so large (≳ 1e300), or so far
+        above the threshold, that the segment moments overflow, are refused (ValueError).
     threshold : finite real number. min_area : positive int. connectivity : 4 or 8.
     labels : also return the int32 label image (same shape as `frame`, 0 = background).
     frame_no : if given, a first column ``frame`` holding it (the trackpy convention).
@@ -166,12 +166,14 @@ def _frame_no(value: object, frames: int) -> int | None:
 
 
 def _check_moments(columns: dict[str, np.ndarray]) -> None:
-    """ValueError when a segment's moments left float64 (their sums of pixel weights times
-    coordinates overflow for pixels ≳ 1e300): one check per segment, not per pixel."""
+    """ValueError when a segment's moments left float64 (their sums of pixel weights
+    v − threshold times coordinates overflow for weights ≳ 1e300): one check per segment,
+    not per pixel."""
     moments = (columns[name] for name in COLUMNS if name not in _INT_COLUMNS)
     if not all(np.isfinite(m).all() for m in moments):
         raise ValueError(
-            "a segment's moments overflow float64 (pixel values ≳ 1e300): rescale the frame"
+            "a segment's moments overflow float64 (its pixel values or their excess over the "
+            "threshold ≳ 1e300): rescale the frame, or raise a threshold that far below them"
         )
 
 

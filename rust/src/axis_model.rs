@@ -34,6 +34,12 @@ impl AxisModel {
                 "rho must lie strictly between 0 and 1, got {rho}"
             )));
         }
+        if rho < f64::MIN_POSITIVE {
+            return Err(FieldError::InvalidParameter(format!(
+                "rho must be at least {:e} (a normal float64), got {rho:e}",
+                f64::MIN_POSITIVE
+            )));
+        }
         if order == 0 || order > MAX_ORDER {
             return Err(FieldError::InvalidParameter(format!(
                 "order (root multiplicity) must be an integer in 1..={MAX_ORDER}, got {order}"

@@ -10,7 +10,7 @@ rule over the sphere.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from math import comb, factorial
+from math import comb, factorial, sqrt
 
 import numpy as np
 
@@ -66,7 +66,12 @@ def template(rho: Sequence[float], order: Sequence[int]) -> np.ndarray:
 
 def _levinson(rho: float, n: int) -> tuple[list[np.ndarray], list[float]]:
     """Coefficients a^{(m)} and prediction errors b_m², m = 0..n, by Levinson–Durbin."""
-    r = axis_correlation(rho, n, np.arange(n + 1))
+    return _levinson_of(axis_correlation(rho, n, np.arange(n + 1)))
+
+
+def _levinson_of(r: np.ndarray) -> tuple[list[np.ndarray], list[float]]:
+    """Levinson–Durbin on the correlations r (lags 0..n)."""
+    n = len(r) - 1
     coeffs, errors = [np.zeros(0)], [float(r[0])]
     for m in range(1, n + 1):
         prev = coeffs[-1]
@@ -96,8 +101,37 @@ def stationary_start(rho: float, n: int) -> tuple[list[np.ndarray], np.ndarray]:
                 f"the exactly stationary start of an axis with rho = {rho} and multiplicity "
                 f"{n} is beyond float64: its order-{m} prediction error rounds to {e:.1e}"
             )
+    _check_start_accuracy(rho, n, errors)
+    if 1e-5 < np.finfo(np.float64).eps / sqrt(beta_tilde_sq(rho, n)):
+        raise ValueError(
+            f"an axis with rho = {rho} and multiplicity {n} amplifies the rounding of float64 "
+            "recursions beyond 1e-3 σ: lower rho or the multiplicity"
+        )
     coeffs[n], errors[n] = axis_ar_coefficients(rho, n), beta_tilde_sq(rho, n)
     return coeffs, np.sqrt(errors)
+
+
+def _check_start_accuracy(rho: float, n: int, errors: list[float]) -> None:
+    """ValueError (as the kernel) when the start's prediction errors of orders 0..n − 1
+    change by more than 10 % (relative) under R(k)·(1 ± 4ε) in three sign patterns."""
+    r = axis_correlation(rho, n, np.arange(n + 1))
+    k = np.arange(n + 1)
+    eps = np.finfo(np.float64).eps
+    base = np.array(errors[:n])
+    sensitivity = 0.0
+    patterns = [np.where(k % 2, -1.0, 1.0), np.where(k % 2, 0.0, 1.0)]
+    patterns.append(np.where(k // 2 % 2, -1.0, 1.0))
+    for sign in patterns:
+        moved = np.array(_levinson_of(r * (1 + 4 * eps * sign))[1][:n])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            change = np.abs((moved - base) / base)
+        sensitivity = max(sensitivity, float(np.max(np.where(np.isnan(change), np.inf, change))))
+    if sensitivity > 0.1:
+        raise ValueError(
+            f"the exactly stationary start of an axis with rho = {rho} and multiplicity {n} is "
+            f"beyond float64: its prediction errors change by {sensitivity:.1e} (relative) when "
+            "the correlations move by 4 ulps"
+        )
 
 
 def _recurse_axis(x: np.ndarray, axis: int, rho: float, n: int, scale: float = 1.0) -> np.ndarray:
