@@ -257,3 +257,27 @@ def test_a_prediction_on_an_image_smaller_than_the_template_is_all_nan():
     assert np.isnan(_FIT.predict(np.ones((1, 5)))).all()
     assert np.isnan(_FIT.predict(np.ones((5, 2)))).all()
     assert np.isfinite(_FIT.predict(np.ones((2, 3)))[1, 2])
+
+
+def test_identification_is_scale_free_and_refuses_variances_beyond_float64():
+    """The fits run on the data times a power of two: the same ρ at any scale (1e-160 data
+    had underflowed to a silently wrong ρ, 1e154 ones overflowed to a misleading error), σ
+    and the innovation variances in data units, and a clear error where the variance itself
+    leaves float64."""
+    x = kf.ARFieldModel(0.9, [1, 1]).sample((64, 64), seed=1)
+    base = kf.identify(x)
+    for scale in (1e-140, 2.0**-400, 1e140):
+        fit = kf.identify(x * scale)
+        np.testing.assert_allclose(fit.model.rho, base.model.rho, rtol=1e-8)
+        assert fit.model.sigma == pytest.approx(scale * base.model.sigma, rel=1e-8)
+        expected = scale**2 * base.fits[0].innovation_variance
+        np.testing.assert_allclose(fit.fits[0].innovation_variance, expected, rtol=1e-8)
+    exact = kf.identify(x * 2.0**-400)  # a power of two: the same bits
+    assert exact.model.rho == base.model.rho
+    for scale in (1e-200, 1e300):
+        with pytest.raises(ValueError, match="variance .* is beyond float64: rescale them"):
+            kf.identify(x * scale)
+    with pytest.raises(ValueError, match="underflows float64: rescale"):
+        kf.yule_walker(x * 1e-170, (1, 1))
+    small = kf.yule_walker(x * 1e-100, (1, 1))
+    np.testing.assert_allclose(small.alpha, kf.yule_walker(x, (1, 1)).alpha, rtol=1e-10)

@@ -154,11 +154,16 @@ def identify(
         raise ValueError("data have no valid (finite, unmasked) pixel")
     complete = bool(valid.all())
     mean = float(values.mean() if complete else values[valid].mean())
-    centred = values - mean
-    sample_variance = float(np.mean(centred**2 if complete else centred[valid] ** 2))
-    if not sample_variance > 0:
-        raise ValueError("data are constant over their valid pixels: there is no model to fit")
-    choices = [_fit_axis(centred, k, max_order, threads) for k in model_axes]
+    centred, exponent = _unit_scaled(values - mean, valid, complete)
+    unit_variance = np.mean(centred**2 if complete else centred[valid] ** 2)
+    with np.errstate(over="ignore", under="ignore"):
+        sample_variance = float(np.ldexp(unit_variance, 2 * exponent))
+    if not (np.isfinite(sample_variance) and sample_variance > 0):
+        raise ValueError(
+            f"the data's variance ({unit_variance:.3g}·2^{2 * exponent}) is beyond float64: "
+            "rescale them"
+        )
+    choices = [_fit_axis(centred, k, max_order, threads, exponent) for k in model_axes]
     rho = tuple(c[0] for c in choices)
     order = tuple(c[1] for c in choices)
     variance = sample_variance / (1 - _mean_pair_correlation(values.shape, model_axes, rho, order))
@@ -202,8 +207,23 @@ def _model_axes(axes: Sequence[int] | None, ndim: int) -> tuple[int, ...]:
     return tuple(out)
 
 
-def _fit_axis(centred: np.ndarray, axis: int, max_order: int, threads: int | None):
-    """Per candidate n: (ρ̂, σ̂_e²); returns the chosen (ρ, n, σ_e²) and the whole table."""
+def _unit_scaled(centred: np.ndarray, valid: np.ndarray, complete: bool) -> tuple[np.ndarray, int]:
+    """(centred · 2^−e, e) with 2^e the power of two nearest the largest |value|: exact (the
+    same bits as unscaled wherever those did not overflow or underflow), and the sums of
+    squares then stay inside float64 for data of any magnitude (1e-160 data had underflowed
+    to a wrong ρ, 1e154 ones overflowed)."""
+    peak = float(np.max(np.abs(centred if complete else centred[valid])))
+    if not peak > 0:
+        raise ValueError("data are constant over their valid pixels: there is no model to fit")
+    exponent = int(np.round(np.log2(peak)))
+    return np.ldexp(centred, -exponent), exponent
+
+
+def _fit_axis(
+    centred: np.ndarray, axis: int, max_order: int, threads: int | None, exponent: int = 0
+):
+    """Per candidate n: (ρ̂, σ̂_e²); returns the chosen (ρ, n, σ_e²) and the whole table.
+    `centred` holds the data times 2^−exponent (the innovations are given in data units)."""
     if centred.shape[axis] <= max_order + 1:
         raise ValueError(
             f"axis {axis} has {centred.shape[axis]} pixels: too few for max_order {max_order} "
@@ -219,7 +239,8 @@ def _fit_axis(centred: np.ndarray, axis: int, max_order: int, threads: int | Non
     if not gram[1, 1] > 0:
         raise ValueError(f"data are constant along axis {axis}: there is no model to fit")
     rhos = np.array([t[0] for t in table])
-    innovation = np.array([t[1] for t in table])
+    with np.errstate(over="ignore", under="ignore"):
+        innovation = np.ldexp(np.array([t[1] for t in table]), 2 * exponent)
     criterion = pairs * np.log(innovation)
     best = int(np.argmin(criterion))
     if rhos[best] >= RHO_MAX * (1 - 1e-9) or rhos[best] <= RHO_MIN * (1 + 1e-9):

@@ -71,10 +71,16 @@ def yule_walker(
         raise ValueError(
             f"some lags of the order-{(n_y, n_x)} template have no pair of observed pixels"
         )
-    with np.errstate(over="ignore"):
-        variance = float(np.var(values[valid]))
+    kept = values[valid]
+    peak = float(np.max(np.abs(kept - kept.mean())))
+    # by a power of two: exact, and the squares stay inside float64 (1e-170 data underflowed)
+    exponent = int(np.round(np.log2(peak))) if peak > 0 else 0
+    with np.errstate(over="ignore", under="ignore"):
+        variance = float(np.ldexp(np.var(np.ldexp(kept, -exponent)), 2 * exponent))
     if not np.isfinite(variance):
         raise ValueError("the data's variance overflows float64: rescale them")
+    if peak > 0 and not variance > 0:
+        raise ValueError("the data's variance underflows float64: rescale them")
     return yule_walker_from_covariance(variance * correlation, float(values[valid].mean()))
 
 
