@@ -229,6 +229,9 @@ def test_product_field_bad_input():
         kf.sample_product_field(MODEL, (3, 3), noise=[np.zeros(3), np.zeros(4)])
     with pytest.raises(TypeError, match="ARFieldModel"):
         kf.sample_product_field("model", (3, 3))
+    for noise in (5, "ab"):  # (an int had raised "object of type 'int' has no len()")
+        with pytest.raises(TypeError, match="noise must be a sequence of 2 1-D arrays"):
+            kf.sample_product_field(MODEL, (3, 3), noise=noise)
 
 
 def test_core_rejects_mismatched_output_without_panicking():

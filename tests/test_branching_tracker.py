@@ -813,14 +813,31 @@ def test_link_bad_input(detections):
         kf.link(detections.to_numpy(), **LINK_KW)
     with pytest.raises(ValueError, match="integer frame numbers"):
         kf.link(detections.assign(frame=detections.frame + 0.5), **LINK_KW)
+    # strings, bools, datetimes, NaN and numbers beyond int64 (they had been cast, wrapped
+    # round or had raised a bare TypeError from float())
+    n = len(detections)
+    for frames in (
+        detections.frame.astype(str),
+        detections.frame % 2 == 0,
+        pd.to_datetime(detections.frame, unit="s"),
+        detections.frame.astype(float).where(detections.index > 0),
+        np.full(n, 2.0**63),
+        np.array([2**63] * n, dtype=object),
+    ):
+        with pytest.raises(ValueError, match="integer frame numbers within int64"):
+            kf.link(detections.assign(frame=frames), **LINK_KW)
+    with pytest.raises(ValueError, match="pos_columns must name at least one"):
+        kf.link(detections, pos_columns=[], **LINK_KW)
     nan = detections.copy()
     nan.loc[3, "x"] = np.nan
     with pytest.raises(ValueError, match="finite"):
         kf.link(nan, **LINK_KW)
     empty = kf.link(detections.iloc[:0], **LINK_KW)
     assert len(empty) == 0 and "particle" in empty.columns
-    # integer-valued float frame numbers are accepted
+    # integer-valued float frame numbers are accepted, and Python ints in an object column
     out = kf.link(detections.assign(frame=detections.frame.astype(float)), **LINK_KW)
+    np.testing.assert_array_equal(out.particle, kf.link(detections, **LINK_KW).particle)
+    out = kf.link(detections.assign(frame=detections.frame.astype(object)), **LINK_KW)
     np.testing.assert_array_equal(out.particle, kf.link(detections, **LINK_KW).particle)
 
 

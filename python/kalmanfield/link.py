@@ -3,6 +3,7 @@ table."""
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Sequence
 from typing import Any
@@ -56,17 +57,13 @@ def link(
     if not isinstance(detections, pd.DataFrame):
         raise TypeError(f"detections must be a pandas DataFrame, got {type(detections).__name__}")
     cols = [*pos_columns, *features]
+    if not list(pos_columns):
+        raise ValueError("pos_columns must name at least one position column")
     missing = [c for c in ["frame", *cols] if c not in detections.columns]
     if missing:
         raise ValueError(f"detections lack the columns {missing}")
     df = detections.reset_index(drop=True)
-    frame_numbers = df["frame"].to_numpy()
-    if len(df) and not (
-        np.issubdtype(frame_numbers.dtype, np.integer)
-        or all(isinstance(f, numbers.Integral) or float(f).is_integer() for f in frame_numbers)
-    ):
-        raise ValueError("the frame column must hold integer frame numbers")
-    frame_numbers = frame_numbers.astype(np.int64)
+    frame_numbers = _frame_numbers(df["frame"].to_numpy())
     # Python ints: the int64 difference wraps round for frame numbers spanning int64
     span = int(frame_numbers.max()) - int(frame_numbers.min()) + 1 if len(df) else 0
     if span > MAX_EMPTY_FRAMES + 100 * len(df):
@@ -113,6 +110,31 @@ def link(
     particle[order[tracks["detection"].to_numpy()[hit]]] = tracks["particle"].to_numpy()[hit]
     out["particle"] = particle
     return out
+
+
+def _frame_numbers(column: np.ndarray) -> np.ndarray:
+    """The frame column as int64: integers (not bools), or floats / Python objects holding
+    integral values within int64; anything else (strings, datetimes, fractions, NaN, bools,
+    numbers beyond int64) is a ValueError."""
+    bad = ValueError(
+        f"the frame column must hold integer frame numbers within int64, got dtype {column.dtype}"
+    )
+    if np.issubdtype(column.dtype, np.integer):
+        return column.astype(np.int64)
+    if column.dtype.kind not in "fO":
+        raise bad
+    limit = float(2**63)
+    for f in column:
+        if isinstance(f, (bool, np.bool_)) or not isinstance(f, numbers.Real):
+            raise bad
+        if isinstance(f, numbers.Integral):
+            if not -(2**63) <= int(f) < 2**63:
+                raise bad
+        else:
+            value = float(f)
+            if not (math.isfinite(value) and value.is_integer() and -limit <= value < limit):
+                raise bad
+    return np.array([int(f) for f in column], dtype=np.int64)
 
 
 def table_clutter_density(values: np.ndarray, frame_numbers: np.ndarray) -> float:

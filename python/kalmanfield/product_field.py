@@ -41,6 +41,11 @@ def sample_product_field(
     dt = float_dtype(dtype, model.sigma)
     given = None
     if noise is not None:
+        if isinstance(noise, (str, bytes)) or not isinstance(noise, (Sequence, np.ndarray)):
+            raise TypeError(
+                f"noise must be a sequence of {model.ndim} 1-D arrays (one per axis), "
+                f"got {type(noise).__name__}"
+            )
         if len(noise) != model.ndim:
             raise ValueError(f"noise must hold {model.ndim} 1-D arrays, got {len(noise)}")
         given = [finite_noise(s, (n,), f"noise[{k}]") for k, (s, n) in enumerate(zip(noise, dims))]
