@@ -303,6 +303,24 @@ def test_noise_ratios_outside_float64s_normal_range_are_refused():
         kf.ScalarRowFilter(model, 1.0, 8).filter(z, noise_var=np.full(z.shape, 1e-320))
 
 
+def test_scalar_filter_estimates_that_overflow_are_refused_not_nan():
+    """|z − mean|·σ_x²/σ_θ² beyond float64 (1e10 at a noise ratio of 1e-300, 1e300 at 1e-12):
+    the estimate was all NaN, silently (the vector filter copes). Images, stacks, per-pixel
+    maps, causal and smoothed."""
+    model = kf.ARFieldModel(0.9, [1, 1])
+    for noise_var, value in ((1e-300, 1e10), (1e-12, 1e300)):
+        for smooth in (False, True):
+            srf = kf.ScalarRowFilter(model, noise_var, 3, smooth=smooth)
+            for z in (np.full((3, 3), value), np.full((2, 3, 3), value)):
+                with pytest.raises(ValueError, match="estimate overflowed float64"):
+                    srf.filter(z)
+    srf = kf.ScalarRowFilter(model, 1.0, 3)
+    with pytest.raises(ValueError, match="estimate overflowed float64"):
+        srf.filter(np.full((3, 3), 1e10), noise_var=np.full((3, 3), 1e-300))
+    # the same pixels at an ordinary noise ratio are fine
+    assert np.isfinite(kf.ScalarRowFilter(model, 1e-6, 3).filter(np.full((3, 3), 1e10))).all()
+
+
 def test_overflowing_estimates_are_refused_not_inf():
     z = np.random.default_rng(6).standard_normal((40, 32))
     with pytest.raises(ValueError, match="overflows"):

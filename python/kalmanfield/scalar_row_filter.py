@@ -168,8 +168,9 @@ class ScalarRowFilter(RowFilter):
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
         released). NaN pixels are missing observations. `noise_var`: per-pixel σ_θ² map
         broadcastable to z's shape (> 0; inf = missing); None = the filter's noise_var.
-        Pixels with |z − mean| > 2**1000 ≈ 1e301 are refused (ValueError). Returns float64
-        of z's shape."""
+        Pixels with |z − mean| > 2**1000 ≈ 1e301 are refused (ValueError), and so is an
+        estimate that overflows float64 (|z − mean|·σ_x²/σ_θ² too large: pixels far from the
+        mean at a tiny noise ratio; the vector filter copes). Returns float64 of z's shape."""
         if noise_var is None:
             # the kernel checks every pixel in its own pass over the row: no pass here
             # unless it finds a NaN (then a missing pixel) or infinite one (refused below)

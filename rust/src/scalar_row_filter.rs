@@ -750,7 +750,26 @@ impl ScalarRowFilter {
             return Ok(());
         }
         let plan = self.plan(height)?;
-        self.run(&plan, z, weights, out, height, smooth)
+        self.run(&plan, z, weights, out, height, smooth)?;
+        self.check_estimate(out)
+    }
+
+    /// Error when the estimate left float64: pixels far from the mean at a tiny noise ratio
+    /// (|z − mean|·σ_x²/σ_θ² beyond ~1e308, e.g. 1e10 at 1e-300) overflow the innovations.
+    /// An overflow in any row reaches the last row of the causal pass (the state carries it
+    /// down) and the first row of the smoothed one, so those two rows tell.
+    fn check_estimate(&self, out: &[f64]) -> Result<()> {
+        let w = self.width();
+        let ends = [&out[..w], &out[out.len() - w..]];
+        if ends.iter().all(|row| row.iter().all(|v| v.is_finite())) {
+            return Ok(());
+        }
+        Err(FieldError::InvalidParameter(
+            "the estimate overflowed float64: the pixels lie too far from the mean for this \
+             noise ratio (|z − mean|·σ_x²/σ_θ² must stay well inside float64); rescale the \
+             image, raise noise_var or use VectorRowFilter"
+                .into(),
+        ))
     }
 
     /// Filters `frames` images in parallel (`weights` as in `filter_image`, one map per frame).
@@ -774,7 +793,8 @@ impl ScalarRowFilter {
             .enumerate()
             .try_for_each(|(k, (o, f))| {
                 let frame_weights = weights.map(|w| &w[k * size..(k + 1) * size]);
-                self.run(&plan, f, frame_weights, o, height, smooth)
+                self.run(&plan, f, frame_weights, o, height, smooth)?;
+                self.check_estimate(o)
             })
     }
 
