@@ -279,5 +279,11 @@ def test_identification_is_scale_free_and_refuses_variances_beyond_float64():
             kf.identify(x * scale)
     with pytest.raises(ValueError, match="underflows float64: rescale"):
         kf.yule_walker(x * 1e-170, (1, 1))
+    huge = x.copy()
+    huge[0, :2] = [1.7e308, -1.7e308]  # their squares overflow
+    with pytest.raises(ValueError, match="rescale them"):
+        kf.identify(huge)
+    with pytest.raises(ValueError, match="rescale them"):
+        kf.yule_walker(huge, (1, 1))
     small = kf.yule_walker(x * 1e-100, (1, 1))
     np.testing.assert_allclose(small.alpha, kf.yule_walker(x, (1, 1)).alpha, rtol=1e-10)

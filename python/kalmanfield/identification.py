@@ -212,7 +212,10 @@ def _unit_scaled(centred: np.ndarray, valid: np.ndarray, complete: bool) -> tupl
     same bits as unscaled wherever those did not overflow or underflow), and the sums of
     squares then stay inside float64 for data of any magnitude (1e-160 data had underflowed
     to a wrong ρ, 1e154 ones overflowed)."""
-    peak = float(np.max(np.abs(centred if complete else centred[valid])))
+    with np.errstate(over="ignore"):
+        peak = float(np.max(np.abs(centred if complete else centred[valid])))
+    if not np.isfinite(peak):
+        raise ValueError("the data's deviations from their mean overflow float64: rescale them")
     if not peak > 0:
         raise ValueError("data are constant over their valid pixels: there is no model to fit")
     exponent = int(np.round(np.log2(peak)))

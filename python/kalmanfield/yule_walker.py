@@ -72,7 +72,10 @@ def yule_walker(
             f"some lags of the order-{(n_y, n_x)} template have no pair of observed pixels"
         )
     kept = values[valid]
-    peak = float(np.max(np.abs(kept - kept.mean())))
+    with np.errstate(over="ignore", invalid="ignore"):
+        peak = float(np.max(np.abs(kept - kept.mean())))
+    if not np.isfinite(peak):
+        raise ValueError("the data's deviations from their mean overflow float64: rescale them")
     # by a power of two: exact, and the squares stay inside float64 (1e-170 data underflowed)
     exponent = int(np.round(np.log2(peak))) if peak > 0 else 0
     with np.errstate(over="ignore", under="ignore"):

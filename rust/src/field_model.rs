@@ -6,13 +6,13 @@ use crate::error::{FieldError, Result};
 use crate::stationary_start::AxisRecursion;
 use num_traits::Float;
 
-/// A separable multiple-root autoregression over any number of axes.
 /// Smallest σ accepted, 2⁻⁵¹⁰ ≈ 3.0e-154: σ² = 2⁻¹⁰²⁰ is still a normal float64.
 pub const MIN_SIGMA: f64 = 2.983336292480083e-154;
 /// Largest σ accepted, 2⁵¹⁰ ≈ 3.4e153: σ² = 2¹⁰²⁰ ≈ 1.1e307 is finite (σ = 1e300 made the
 /// correlation inf and NaN).
 pub const MAX_SIGMA: f64 = 3.3519519824856493e153;
 
+/// A separable multiple-root autoregression over any number of axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldModel {
     axes: Vec<AxisModel>,

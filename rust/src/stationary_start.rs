@@ -31,7 +31,7 @@ impl<T: Float> AxisRecursion<T> {
     /// [`MAX_START_SENSITIVITY`] (relative) when R moves by 4 ulps (they are then wrong by
     /// ~1 % to ×1e4: the exact start's R[:n,:n] is singular to float64, e.g. n = 4 at
     /// ρ ≥ 0.995), and a steady recursion whose rounding errors, amplified ~(10–100) × 1/β̃,
-    /// exceed ~1e-3 σ in the precision T ([`MAX_ROUNDING_GAIN`] · ε_T ≥ 1/β̃ refused).
+    /// exceed ~1e-3 σ in the precision T (refused when ε_T / β̃ > [`MAX_ROUNDING_GAIN`]).
     pub fn new(axis: &AxisModel, scale: f64) -> Result<Self> {
         let n = axis.order();
         let (mut coeffs, mut errors) = levinson(axis);
@@ -76,7 +76,7 @@ impl<T: Float> AxisRecursion<T> {
 
 /// Largest relative change of the start's prediction errors under 4-ulp changes of R.
 pub const MAX_START_SENSITIVITY: f64 = 0.1;
-/// 1/β̃ · ε_T at most 1e-5: the steady recursion's rounding errors stay below ~1e-3 σ.
+/// ε_T / β̃ at most 1e-5: the steady recursion's rounding errors stay below ~1e-3 σ.
 pub const MAX_ROUNDING_GAIN: f64 = 1e-5;
 
 /// Refuses a start whose prediction errors of orders 0..n − 1 are sensitive to the rounding
