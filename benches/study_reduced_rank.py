@@ -34,7 +34,7 @@ where the naive pass failed, the MBF one holds (``main`` prints both).
 
 Exact MSEs by linearity (``reference.row_filters.linear_estimator_mse``), against the optimal
 filter's error map (causal) or the Wiener bound (smoothed). Run:
-``python benches/study_reduced_rank.py`` (~2 min on the 2-vCPU VM).
+``python benches/study_reduced_rank.py`` (~8 min on the 2-vCPU VM).
 """
 
 from __future__ import annotations
