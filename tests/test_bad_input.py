@@ -398,3 +398,27 @@ def test_integers_beyond_float64_are_refused_by_name(call, match):
     # (float() raised OverflowError and NumPy's isfinite a TypeError about ufunc casting)
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_row_filter_inputs_of_every_kind():
+    """Masked entries are missing pixels (the mask was ignored, the masked data used);
+    strings, datetimes and numbers beyond float64 are refused by name (strings had been
+    parsed, datetimes cast, 10**400 raised numpy's OverflowError); an empty stack with a
+    noise map is an empty answer (it raised numpy's zero-size reduction error)."""
+    model = kf.ARFieldModel(0.9, [1, 1])
+    srf = kf.ScalarRowFilter(model, 0.5, 5)
+    z = np.random.default_rng(0).standard_normal((4, 5))
+    masked = np.ma.MaskedArray(z.copy(), mask=np.zeros(z.shape, bool))
+    masked.mask[1, 2] = True
+    holes = z.copy()
+    holes[1, 2] = np.nan
+    np.testing.assert_array_equal(srf.filter(masked), srf.filter(holes))
+    assert np.isfinite(masked.data).all()  # the caller's data untouched
+    with pytest.raises(ValueError, match="needs every pixel"):
+        kf.VectorRowFilter(model, 0.5, 5).filter(masked)
+    with pytest.raises(ValueError, match="beyond float64's range"):
+        srf.filter(np.full((4, 5), 10**400, dtype=object))
+    for bad in (np.full((4, 5), "1.5"), np.zeros((4, 5), dtype="datetime64[s]")):
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            srf.filter(bad)
+    assert srf.filter(np.zeros((0, 4, 5)), noise_var=np.ones((0, 4, 5))).shape == (0, 4, 5)

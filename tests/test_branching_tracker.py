@@ -598,7 +598,7 @@ def test_corrupt_counter_in_state_is_an_error_not_an_abort():
         (np.zeros((2, 1)), ValueError, r"\(m, 2\) array"),
         (np.zeros(2), ValueError, r"\(m, 2\) array"),
         (np.zeros((1, 2, 2)), ValueError, r"\(m, 2\) array"),
-        ([["a", "b"]], TypeError, "numeric"),
+        ([["a", "b"]], TypeError, "real numbers"),
         (np.ones((1, 2), bool), TypeError, "real numbers"),
         (np.ones((1, 2), complex), TypeError, "real numbers"),
         (pd.DataFrame({"x": [1.0]}), ValueError, "lacks the columns"),

@@ -103,17 +103,26 @@ def probability(value: Any, name: str) -> float:
 
 
 def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
-    """`value` as a C-contiguous float64 array (at least 1-D); None, bool, complex and
-    non-numeric input refused."""
+    """`value` as a C-contiguous float64 array (at least 1-D); None, bool, complex, strings,
+    datetimes, structured and other non-numeric input refused. The masked entries of a
+    ``numpy.ma.MaskedArray`` become NaN (missing), as in :func:`observed`."""
     if value is None:
         raise TypeError(f"{name} must be an array, got None")
-    raw = np.asarray(value)
-    if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
+    masked = np.ma.getmaskarray(value) if isinstance(value, np.ma.MaskedArray) else None
+    raw = np.asarray(np.ma.getdata(value) if masked is not None else value)
+    if raw.dtype.kind not in "iufO":
         raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
     try:
-        return np.ascontiguousarray(raw, dtype=np.float64)
+        out = np.ascontiguousarray(raw, dtype=np.float64)
+    except OverflowError:
+        raise ValueError(f"{name} hold a number beyond float64's range") from None
     except (TypeError, ValueError) as err:
         raise TypeError(f"{name} must be numeric arrays: {err}") from None
+    if masked is not None and masked.any():
+        if np.shares_memory(out, raw):  # never write into the caller's data
+            out = out.copy()
+        out[masked] = np.nan
+    return out
 
 
 def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, ...]:

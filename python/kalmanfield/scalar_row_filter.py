@@ -216,7 +216,7 @@ class ScalarRowFilter(RowFilter):
             raise ValueError("noise_var must be > 0 at every pixel (inf marks a missing one)")
         with np.errstate(divide="ignore", over="ignore", under="ignore"):
             ratio = var / sigma / sigma
-            if ratio.min() < MIN_RATIO:
+            if ratio.size and ratio.min() < MIN_RATIO:
                 raise ValueError(
                     f"noise_var / sigma² must be at least {MIN_RATIO:g} at every pixel "
                     f"(float64's normal range), got {ratio.min():g}"
