@@ -121,9 +121,15 @@ def _frame_numbers(column: np.ndarray) -> np.ndarray:
     )
     if np.issubdtype(column.dtype, np.integer):
         return column.astype(np.int64)
-    if column.dtype.kind not in "fO":
-        raise bad
     limit = float(2**63)
+    if column.dtype.kind == "f":
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(column) & (column == np.round(column)) & (np.abs(column) < limit)
+        if not ok.all():
+            raise bad
+        return column.astype(np.int64)
+    if column.dtype.kind != "O":
+        raise bad
     for f in column:
         if isinstance(f, (bool, np.bool_)) or not isinstance(f, numbers.Real):
             raise bad
