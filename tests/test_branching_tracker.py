@@ -179,6 +179,15 @@ def test_rust_equals_reference_irregular_times_and_empty_frames(scenario):
 
 
 # ------------------------------------------------------------------------------- 2. Kalman
+def expected_score(d_start, nu_max, pd_, lam, log_var, incs, penalty=0.0):
+    """The track score per frame (reference module doc): 0 at the first point, `d_start` at
+    start points 2…ν_max+1, then ln P_d − ln λ − ½ Σ_q ln(2π D_q) − ½ δ (+ `penalty`, per
+    frame) at measured frames; `log_var` = Σ_q ln(2π D_q) and `incs` = δ per frame."""
+    d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:] + penalty
+    steps = np.where(np.arange(1, len(incs)) <= nu_max, d_start, d_meas)
+    return np.r_[0.0, np.cumsum(steps)]
+
+
 def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
     """Plain per-parameter polynomial Kalman filter (SPEC §3.1), written independently:
     F = Taylor matrix of τ, Q = σ² g gᵀ with g_i = τ^(ν+1−i)/(ν+1−i)!, H = (1, 0, …).
@@ -251,8 +260,11 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
             v = v + np.where(walk, 0.0, noise * tau)
         truth.append(x.copy())
     z = np.array(truth) + rng.normal(0.0, meas_std, (T, k))
-    tracker = kf.BranchingTracker(
-        k,
+    tracker = run(
+        kf.BranchingTracker,
+        z[:, None, :],
+        k=k,
+        times=times,
         order=orders,
         process_std=process_std,
         measurement_std=meas_std,
@@ -261,8 +273,6 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
         clutter_density=lam,
         max_speed=vmax,
     )
-    for zi, t in zip(z, times):
-        tracker.update(zi[None, :], time=t)
     tracks = tracker.tracks()
     assert tracks.particle.nunique() == 1
     assert np.array_equal(tracks.detection.to_numpy(), np.arange(T))
@@ -289,9 +299,7 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
         extent *= np.maximum(seen, math.sqrt(2.0 * math.pi) * meas_std[q])
     lam_s = lam * extent[1:]
     d_start = math.log(pd_) - np.log(lam_s * np.pi * r_ls**2)
-    d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
-    dscore = np.where(np.arange(1, T) <= nu_max, d_start, d_meas)
-    score = np.r_[0.0, np.cumsum(dscore)]
+    score = expected_score(d_start, nu_max, pd_, lam, log_var, incs)
     np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
     if k > s:  # the start terms use λ_s, not λ: the check tells them apart
         assert np.all(np.abs(np.log(extent[1 : nu_max + 1])) > 1e-3)
@@ -383,8 +391,10 @@ def test_maneuver_branch_follows_a_bounce(maneuver):
     sigma_m, p_m, meas_std, process_std = 1.5, 1e-3, 0.3, 0.1
     times, z = bounce_scenario(T=T, bounce=bounce, meas_std=meas_std)
     extra = dict(maneuver_std=sigma_m, maneuver_prob=p_m) if maneuver else {}
-    tracker = kf.BranchingTracker(
-        2,
+    tracker = run(
+        kf.BranchingTracker,
+        z[:, None, :],
+        times=times,
         process_std=process_std,
         measurement_std=meas_std,
         memory=N,
@@ -394,8 +404,6 @@ def test_maneuver_branch_follows_a_bounce(maneuver):
         confidence=beta,
         **extra,
     )
-    for zi, t in zip(z, times):
-        tracker.update(zi[None, :], time=t)
     tracks = tracker.tracks()
     if not maneuver:
         spans = tracks.groupby("particle").detection.agg(["min", "max"])
@@ -414,9 +422,8 @@ def test_maneuver_branch_follows_a_bounce(maneuver):
     np.testing.assert_allclose(tracks["index"].to_numpy(), index, rtol=0, atol=1e-9)
     r_ls = vmax * 1.0 + 3.0 * math.sqrt(2.0) * meas_std
     d_start = math.log(pd_) - math.log(lam * np.pi * r_ls**2)
-    d_meas = math.log(pd_) - math.log(lam) - 0.5 * log_var[1:] - 0.5 * incs[1:]
-    d_meas += np.where(jump_std[1:] > 0, math.log(p_m), 0.0)
-    score = np.r_[0.0, np.cumsum(np.where(np.arange(1, T) <= 1, d_start, d_meas))]
+    penalty = np.where(jump_std[1:] > 0, math.log(p_m), 0.0)
+    score = expected_score(d_start, 1, pd_, lam, log_var, incs, penalty)
     np.testing.assert_allclose(tracks["score"].to_numpy(), score, rtol=0, atol=1e-8)
 
 

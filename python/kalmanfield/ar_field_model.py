@@ -14,6 +14,7 @@ from ._validation import (
     SeedLike,
     ShapeLike,
     allocate,
+    check_memory,
     finite_noise,
     float_dtype,
     grid_shape,
@@ -194,17 +195,12 @@ class ARFieldModel:
         dims = grid_shape(shape, self.ndim)
         dt = float_dtype(dtype, self.sigma)
         given = None if noise is None else finite_noise(noise, dims)
+        if dt == np.float32:  # room for the float64 copy a smooth model is made in, too
+            check_memory(dims, dt, copies=3)
         out = allocate(dims, dt)
         seed_value = 0 if given is not None else resolve_seed(seed)
         threads = thread_count(threads)
-        try:
-            self._core.sample_into(out, seed_value, given, threads)
-        except ValueError as refused:
-            if dt != np.float32 or "rounding of float32" not in str(refused):
-                raise
-            wide = allocate(dims, np.dtype(np.float64))
-            self._core.sample_into(wide, seed_value, given, threads)
-            np.copyto(out, wide, casting="same_kind")
+        self._core.sample_into(out, seed_value, given, threads)
         return out
 
     def stream(

@@ -53,9 +53,9 @@ class FieldStream:
         self.model = model
         self.frame_shape = grid_shape(frame_shape, model.ndim - 1, "frame_shape")
         self.dtype = float_dtype(dtype, model.sigma)
-        if self.dtype == np.float32:  # the kernel's precision check, on one element
-            probe = np.empty((1,) * model.ndim, dtype=self.dtype)
-            model._core.sample_into(probe, 0, None, 1)
+        if self.dtype == np.float32:  # the kernel's precision check: frame 0 of one element
+            probe = np.empty((1,) * (model.ndim - 1), dtype=self.dtype)
+            model._core.stream_into(probe, [], 0, 0, None, 1)
         self.seed = resolve_seed(seed)
         self.threads = thread_count(threads)
         self.time = 0

@@ -27,6 +27,9 @@ const CHUNK: usize = 256;
 /// Fills `out` (C order, `shape`) with one realisation of `model`.
 ///
 /// With `Noise::Given`, `values` must hold one standard-normal number per element (same shape).
+/// A model whose recursions T cannot carry (float32 states of a smooth model drift by up to
+/// O(σ), `AxisRecursion::new`) but float64 can is made in float64 and rounded once: the
+/// float64 field's values, rounded (a float64 copy of the grid in memory meanwhile).
 pub fn sample_into<T: Real>(
     model: &FieldModel,
     out: &mut [T],
@@ -35,8 +38,19 @@ pub fn sample_into<T: Real>(
 ) -> Result<()> {
     check_grid(model.ndim(), out.len(), shape, "shape")?;
     check_noise(&noise, out.len())?;
-    let recursions = model.recursions::<T>()?;
-    generate(out, shape, &recursions, &noise, 0);
+    match model.recursions::<T>() {
+        Ok(recursions) => generate(out, shape, &recursions, &noise, 0),
+        Err(narrow) => {
+            let Ok(recursions) = model.recursions::<f64>() else {
+                return Err(narrow);
+            };
+            let mut wide = vec![0.0; out.len()];
+            generate(&mut wide, shape, &recursions, &noise, 0);
+            out.iter_mut()
+                .zip(&wide)
+                .for_each(|(v, &w)| *v = T::from_f64(w));
+        }
+    }
     Ok(())
 }
 
