@@ -109,6 +109,8 @@ TWIN_CONFIGS = {
     "memory2_no_misses": dict(memory=2, max_misses=0),
     "hypothesis_cap": dict(max_hypotheses=30, max_per_tree=2),
     "max_shared0_merge_depth2": dict(max_shared=0, merge_depth=2, n_confirm=3),
+    "no_child_cap": dict(max_children=None),
+    "max_children1": dict(max_children=1, maneuver_std=1.5, maneuver_prob=0.001),
 }
 
 
@@ -700,6 +702,8 @@ def test_time_must_increase():
         (dict(names=["x"]), ValueError, "names"),
         (dict(max_hypotheses=0), ValueError, "max_hypotheses"),
         (dict(max_seeds=0), ValueError, "max_seeds"),
+        (dict(max_children=0), ValueError, "max_children"),
+        (dict(max_children=2.5), TypeError, "max_children"),
         (dict(n_confirm=0), ValueError, "n_confirm"),
         (dict(seed=-1), ValueError, "seed"),
         (dict(maneuver_prob=0.0), ValueError, "maneuver_prob"),
@@ -878,6 +882,86 @@ def test_heavy_clutter_stays_bounded():
     assert tracker.tracks().empty  # 6 frames in this clutter confirm nothing yet
 
 
+def wide_gate_frames(n_frames=5, n_points=400, seed=0):
+    """Two targets in dense uniform points: with ``measurement_std=6`` every gate holds
+    dozens of measurements, so the per-sequence cap binds at every frame."""
+    rng = np.random.default_rng(seed)
+    targets = np.array([[30.0, 30.0], [90.0, 60.0]])
+    velocity = np.array([[2.0, 1.0], [-1.5, 0.5]])
+    return [
+        np.vstack([targets + f * velocity, rng.uniform(0, 128, (n_points, 2))])
+        for f in range(n_frames)
+    ]
+
+
+WIDE = dict(measurement_std=6.0, max_speed=4.0, max_misses=1)
+
+
+@pytest.mark.parametrize("cap", [3, 16])
+def test_child_cap_binds_and_twins_agree(cap):
+    """The cap keeps the nearest measurements of each gate in both twins (same children,
+    same tracks), and it does bind: fewer children than without it."""
+    frames = wide_gate_frames(n_frames=4, n_points=150)
+    rust = run(kf.BranchingTracker, frames, **WIDE, max_children=cap)
+    assert_twins_agree(rust, run(reference.BranchingTracker, frames, **WIDE, max_children=cap))
+    free = run(kf.BranchingTracker, frames, **WIDE, max_children=None).stats()
+    assert (rust.stats().children.iloc[1:] < free.children.iloc[1:]).all()
+
+
+def test_child_cap_bounds_the_children_and_keeps_the_targets():
+    """Two targets, each inside a cloud of 40 false points per frame (std 5 px): dozens of
+    measurements per gate. Each live sequence makes at most max_children (per variant) + 1
+    children per frame; the kept ones are the nearest, so with a cap of 2 the online answer
+    still sits on both targets in the last frame, as without the cap."""
+    rng = np.random.default_rng(0)
+    targets = np.array([[30.0, 30.0], [90.0, 60.0]])
+    velocity = np.array([[2.0, 1.0], [-1.5, 0.5]])
+    frames = []
+    for f in range(10):
+        p = targets + f * velocity
+        clouds = [c + rng.normal(0.0, 5.0, (40, 2)) for c in p]
+        frames.append(np.vstack([p + rng.normal(0.0, 0.3, p.shape), *clouds, [[0, 0], [128, 128]]]))
+    config = dict(measurement_std=0.3, max_speed=4.0, max_misses=1, maneuver_std=0.5)
+    children = []
+    for cap in (2, None):
+        tracker = run(kf.BranchingTracker, frames, **config, max_children=cap)
+        stats = tracker.stats()
+        children.append(stats.children.sum())
+        if cap is not None:
+            assert (stats.children <= stats.live_before * (2 * cap + 1)).all()
+        last = tracker.tracks(online=True).query("frame == 9")
+        for x, y in targets + 9 * velocity:
+            assert np.hypot(last.x - x, last.y - y).min() < 1.0, cap
+    assert children[0] < 0.8 * children[1]  # the cap did bind
+
+
+@pytest.mark.parametrize("kwargs", [dict(), dict(TRACKER_CONFIG)])
+def test_default_child_cap_changes_nothing_on_sparse_gates(scenario, kwargs):
+    """On the benchmark-like scenario (few measurements per gate) the default cap keeps
+    every child: the same tracks and children counts as the literal rule."""
+    _, frames, _ = scenario
+    capped = run(kf.BranchingTracker, frames, **kwargs)
+    literal = run(kf.BranchingTracker, frames, **kwargs, max_children=None)
+    pd.testing.assert_frame_equal(capped.tracks(), literal.tracks(), check_exact=True)
+    pd.testing.assert_frame_equal(capped.stats(), literal.stats(), check_exact=True)
+
+
+def test_pickle_from_before_the_child_cap_resumes_without_it(scenario):
+    """A pickled state without max_children (saved before the cap existed) resumes with the
+    literal rule, as it was made."""
+    _, frames, _ = scenario
+    literal = run(kf.BranchingTracker, frames[:8], max_children=None)
+    state = literal.__getstate__()
+    del state["config"]["max_children"]
+    clone = kf.BranchingTracker.__new__(kf.BranchingTracker)
+    clone.__setstate__(state)
+    assert clone.config["max_children"] is None
+    for z in frames[8:]:
+        literal.update(z)
+        clone.update(z)
+    pd.testing.assert_frame_equal(clone.tracks(), literal.tracks(), check_exact=True)
+
+
 # ------------------------------------------------------------------------------- 9. property
 TIE_FRAMES = [
     [[33.0, 40.0]],
@@ -928,6 +1012,7 @@ frames_strategy = st.lists(
             dict(n_confirm=3, clutter_density=1e-3, max_per_tree=2, max_hypotheses=10),
             dict(order=2, n_confirm=2, final_llr=-10.0, max_misses=3),
             dict(n_confirm=2, final_llr=-3.0, max_shared=1, max_per_tree=1, confirm_llr=-5.0),
+            dict(n_confirm=2, final_llr=-5.0, max_children=1, maneuver_std=1.0),
         ]
     ),
 )

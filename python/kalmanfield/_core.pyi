@@ -164,6 +164,7 @@ class BranchingTracker:
         max_per_tree: int,
         max_hypotheses: int,
         max_seeds: int,
+        max_children: int | None,
         merge_depth: int,
         maneuver_std: list[float] | None,
         maneuver_prob: float,

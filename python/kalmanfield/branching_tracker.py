@@ -115,6 +115,14 @@ class BranchingTracker:
         clutter at no measured loss (README, tracking tables).
     max_per_tree, max_hypotheses, max_seeds : hypothesis limits (per track tree, global, new
         sequences per frame).
+    max_children : most measurements a sequence branches on per frame (per variant, when
+        ``maneuver_std`` adds one): the nearest in its gate, by increment δ, or by distance
+        for a start point (ties: the earlier measurement); ``None`` = every measurement in
+        the gate, the literal [K93] rule. Not in [K93]: a wide gate in dense measurements
+        (5,000 per frame with ``measurement_std=100``) otherwise makes a child per pair
+        before pruning, gigabytes per frame; rule 3 keeps ``max_per_tree`` + 2 children per
+        tree anyway, so the default (2 × ``max_per_tree``) drops only children it would
+        prune.
     merge_depth : D, last measurements that identify a sequence's future (pruning; 1…256).
     maneuver_std, maneuver_prob : optional velocity-jump branch per parameter (not in [K93]):
         a second child per gated measurement with an extra velocity jump of that std and prior
@@ -156,6 +164,7 @@ class BranchingTracker:
         max_per_tree: int = 8,
         max_hypotheses: int = 20_000,
         max_seeds: int = 2_000,
+        max_children: int | None = 16,
         merge_depth: int = 3,
         maneuver_std: float | Sequence[float] | None = None,
         maneuver_prob: float = 0.01,
@@ -210,6 +219,9 @@ class BranchingTracker:
             max_per_tree=positive_int(max_per_tree, "max_per_tree"),
             max_hypotheses=positive_int(max_hypotheses, "max_hypotheses"),
             max_seeds=positive_int(max_seeds, "max_seeds"),
+            max_children=(
+                None if max_children is None else positive_int(max_children, "max_children")
+            ),
             merge_depth=positive_int(merge_depth, "merge_depth"),
             maneuver_std=(
                 None if maneuver_std is None else _per_param(maneuver_std, k, "maneuver_std")
@@ -351,6 +363,7 @@ class BranchingTracker:
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self._config = dict(state["config"])
+        self._config.setdefault("max_children", None)  # pickled before the cap existed
         self._names = list(state["names"])
         self._core = _core.BranchingTracker(**self._config)
         self._core.load_state(state["state"])

@@ -28,8 +28,11 @@ Branching (SPEC §3.3 step 2) and pruning
 ----------------------------------------
 Per frame every live sequence ("hypothesis") branches over every measurement inside its gate,
 plus one "missed" branch (the coasted prediction) while its current run of misses stays
-≤ ``max_misses``. Sequences descending from one start form a *track tree*. The children are
-pruned, in this order:
+≤ ``max_misses``. Not in [K93]: at most ``max_children`` measurements per sequence and variant,
+the nearest (smallest increment δ; for a start point, smallest distance to its last position;
+ties: the earlier measurement), so a gate holding thousands of measurements cannot make
+gigabytes of children before pruning. Sequences descending from one start form a *track tree*.
+The children are pruned, in this order:
 
 1. tentative time-out: a sequence not confirmed ``confirm_window`` frames after its start dies,
    and so does an unconfirmed one whose score is below ``delete_llr`` (sequential deletion, as
@@ -376,6 +379,8 @@ class BranchingTracker:
     delete_llr : unconfirmed sequences with a lower score die (rule 1; None = off).
     max_per_tree, max_hypotheses, max_seeds : hypothesis limits (per tree, global, new
         sequences per frame).
+    max_children : most measurements a sequence branches on per frame and variant, the
+        nearest in its gate (see "Branching"; None = all).
     merge_depth : number of last entries that identify a sequence's future (pruning 2 and 4).
     maneuver_std, maneuver_prob : optional velocity-jump branch (see module docstring).
     min_hits, final_llr : filter of the final answer (default n_confirm and 5).
@@ -407,6 +412,7 @@ class BranchingTracker:
         max_per_tree: int = 8,
         max_hypotheses: int = 20_000,
         max_seeds: int = 2_000,
+        max_children: int | None = 16,
         merge_depth: int = 3,
         maneuver_std=None,
         maneuver_prob: float = 0.01,
@@ -453,6 +459,7 @@ class BranchingTracker:
         self.K = int(max_per_tree)
         self.max_h = int(max_hypotheses)
         self.max_seeds = int(max_seeds)
+        self.max_children = None if max_children is None else int(max_children)
         self.D = int(merge_depth)
         self.min_hits = self.n_confirm if min_hits is None else int(min_hits)
         self.final_llr = self.confirm_llr if final_llr is None else float(final_llr)
@@ -613,6 +620,7 @@ class BranchingTracker:
         centre = np.where(ls[:, None], h.pos_last, pred)
         r = np.where(ls, r_ls, r)
         pi, pj = _ball_pairs(Z[:, :s], centre, r)
+        d2 = ((Z[pj, :s] - centre[pi]) ** 2).sum(1)
 
         parts = []  # (src, meas, X list, P list, inc or nan, dllr)
         if len(pi):
@@ -627,6 +635,7 @@ class BranchingTracker:
                 ok = ls_p | (inc <= gate[pi])
                 if vi > 0:
                     ok &= ~ls_p
+                ok &= self._nearest(pi, pj, np.where(ls_p, d2, inc), ok)
                 if not ok.any():
                     continue
                 a, b, vv, Sa, inc_a = pi[ok], pj[ok], v[ok], Sp[ok], inc[ok]
@@ -698,6 +707,20 @@ class BranchingTracker:
         c.conf = c.conf | ((c.hits >= self.n_confirm) & (c.llr >= self.confirm_llr))
         c.node = h.node[src]  # parent node until _commit
         return c, term
+
+    def _nearest(self, pi: np.ndarray, pj: np.ndarray, key: np.ndarray, ok: np.ndarray):
+        """Mask of the pairs kept by the cap: per sequence, the ``max_children`` ok pairs of
+        smallest key (ties: smaller measurement index)."""
+        if self.max_children is None:
+            return ok
+        cand = np.flatnonzero(ok)
+        order = cand[np.lexsort((pj[cand], key[cand], pi[cand]))]
+        seq = pi[order]
+        first = np.searchsorted(seq, seq)  # start of each sequence's run in the sorted order
+        rank = np.arange(len(order)) - first
+        keep = np.zeros(len(ok), bool)
+        keep[order[rank < self.max_children]] = True
+        return keep
 
     def _terminate(self, h: _Hyps, term: np.ndarray) -> None:
         """Record ended confirmed sequences as the tree's candidate (best score wins)."""

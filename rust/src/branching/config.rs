@@ -16,6 +16,9 @@ pub const MAX_SCALE: f64 = 1e100;
 /// Largest |time| accepted (the measurements' bound, `MAX_MEASUREMENT` of the Python class).
 pub const MAX_TIME: f64 = 1e150;
 
+/// Default `max_children`: twice the default `max_per_tree`.
+pub const DEFAULT_MAX_CHILDREN: usize = 16;
+
 /// Ranking of the final answer (SPEC §3.3 step 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Selection {
@@ -63,6 +66,9 @@ pub struct TrackerConfig {
     pub max_per_tree: usize,
     pub max_hypotheses: usize,
     pub max_seeds: usize,
+    /// Most measurements a sequence branches on per frame and variant (the nearest in its
+    /// gate); `None` = every one, the literal [K93] rule.
+    pub max_children: Option<usize>,
     pub merge_depth: usize,
     pub maneuver_std: Option<Vec<f64>>,
     pub maneuver_prob: f64,
@@ -124,6 +130,7 @@ impl TrackerConfig {
             max_per_tree: 8,
             max_hypotheses: 20_000,
             max_seeds: 2_000,
+            max_children: Some(DEFAULT_MAX_CHILDREN),
             merge_depth: 3,
             maneuver_std: None,
             maneuver_prob: 0.01,
@@ -241,6 +248,9 @@ impl TrackerConfig {
             if value == 0 {
                 return Err(invalid(format!("{name} must be at least 1")));
             }
+        }
+        if self.max_children == Some(0) {
+            return Err(invalid("max_children must be at least 1 (or None)".into()));
         }
         if let Some(man) = &self.maneuver_std {
             if man.len() != k {

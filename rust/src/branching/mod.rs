@@ -7,6 +7,7 @@
 
 pub mod codec;
 pub mod config;
+mod gating;
 pub mod hypotheses;
 pub mod motion;
 pub mod nodes;

@@ -128,7 +128,7 @@ fn bad_measurements_are_errors_and_change_nothing() {
 
 #[test]
 fn invalid_configurations_are_errors() {
-    let cases: [fn(&mut TrackerConfig); 9] = [
+    let cases: [fn(&mut TrackerConfig); 10] = [
         |c| c.confidence = 1.0,
         |c| c.order = vec![9, 1],
         |c| c.process_std = vec![0.1],
@@ -138,6 +138,7 @@ fn invalid_configurations_are_errors() {
         |c| c.delete_llr = Some(f64::NAN),
         |c| c.p_detect = 1.0,
         |c| c.n_spatial = 3,
+        |c| c.max_children = Some(0),
     ];
     for (i, edit) in cases.iter().enumerate() {
         let mut c = config();

@@ -2,6 +2,7 @@
 //! start new sequences (SPEC §3.1–3.3).
 
 use super::config::{TrackerConfig, MAX_TIME};
+use super::gating::{for_each_ball, keep_nearest, Candidate};
 use super::hypotheses::{Hypotheses, Widths, MISS, NONE};
 use super::motion::{motion_matrices, predict, update};
 use super::nodes::{remapped, Nodes};
@@ -351,38 +352,58 @@ impl BranchingTracker {
                 radius[i] = (gate[i] * s_max).sqrt();
             }
         }
-        let pairs = ball_pairs(input.z, k, s, &centre, &radius);
-        let n_variants = if man { 2 } else { 1 };
-        let mut children = Hypotheses::with_capacity(n_variants * pairs.len() + n, w);
-        let mut has_hit = vec![false; n];
-        let ln_ball = (PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0)).ln();
         let variants: &[(bool, f64)] = if man {
             &[(false, 0.0), (true, cfg.maneuver_prob.ln())]
         } else {
             &[(false, 0.0)]
         };
-        let ln_pd = cfg.p_detect.ln();
-        for &(is_man, penalty) in variants {
-            let (p_var, s_var) = if is_man {
-                (&pr.p_man, &pr.s_man)
-            } else {
-                (&pr.p, &pr.s)
-            };
-            for &(i, j) in &pairs {
-                let ls = h.hits[i] <= nu_max;
+        let s_of = |is_man: bool| if is_man { &pr.s_man } else { &pr.s };
+        // (sequence i, candidate) per variant, by i then j
+        let mut chosen: Vec<Vec<(usize, Candidate)>> = vec![Vec::new(); variants.len()];
+        let mut cand = Vec::new();
+        for_each_ball(input.z, k, s, &centre, &radius, |i, found| {
+            let ls = h.hits[i] <= nu_max;
+            for (&(is_man, _), out) in variants.iter().zip(chosen.iter_mut()) {
                 if is_man && ls {
                     continue;
                 }
+                let sv = &s_of(is_man)[i * k..(i + 1) * k];
+                cand.clear();
+                for &(j, d2) in found {
+                    if ls {
+                        cand.push(Candidate {
+                            key: d2,
+                            j,
+                            inc: f64::NAN,
+                        });
+                        continue;
+                    }
+                    let zj = &input.z[j * k..(j + 1) * k];
+                    let mut inc = 0.0;
+                    for q in 0..k {
+                        let v = zj[q] - pr.x[i * w.state + self.state_off[q]];
+                        inc += v * v / sv[q];
+                    }
+                    if inc <= gate[i] {
+                        cand.push(Candidate { key: inc, j, inc });
+                    }
+                }
+                keep_nearest(&mut cand, cfg.max_children);
+                out.extend(cand.iter().map(|&c| (i, c)));
+            }
+        });
+        let n_chosen: usize = chosen.iter().map(Vec::len).sum();
+        let mut children = Hypotheses::with_capacity(n_chosen + n, w);
+        let mut has_hit = vec![false; n];
+        let ln_ball = (PI.powf(s as f64 / 2.0) / gamma(s as f64 / 2.0 + 1.0)).ln();
+        let ln_pd = cfg.p_detect.ln();
+        for (&(is_man, penalty), pairs) in variants.iter().zip(&chosen) {
+            let p_var = if is_man { &pr.p_man } else { &pr.p };
+            let s_var = s_of(is_man);
+            for &(i, Candidate { j, inc, .. }) in pairs {
+                let ls = h.hits[i] <= nu_max;
                 let zj = &input.z[j * k..(j + 1) * k];
                 let sv = &s_var[i * k..(i + 1) * k];
-                let mut inc = 0.0;
-                for q in 0..k {
-                    let v = zj[q] - pr.x[i * w.state + self.state_off[q]];
-                    inc += v * v / sv[q];
-                }
-                if !ls && inc > gate[i] {
-                    continue;
-                }
                 has_hit[i] = true;
                 children.push_row(h, i, w);
                 let c = children.len() - 1;
@@ -676,35 +697,4 @@ pub fn splitmix64(x: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
-}
-
-/// All (sequence i, measurement j) with ‖z_j[..s] − centre_i‖ ≤ radius_i, ordered by i then j.
-fn ball_pairs(
-    z: &[f64],
-    k: usize,
-    s: usize,
-    centre: &[f64],
-    radius: &[f64],
-) -> Vec<(usize, usize)> {
-    let m = z.len() / k;
-    let mut by_x: Vec<usize> = (0..m).collect();
-    by_x.sort_by(|&a, &b| z[a * k].total_cmp(&z[b * k]));
-    let xs: Vec<f64> = by_x.iter().map(|&j| z[j * k]).collect();
-    let mut pairs = Vec::new();
-    let mut found = Vec::new();
-    for (i, &r) in radius.iter().enumerate() {
-        let c = &centre[i * s..(i + 1) * s];
-        let first = xs.partition_point(|&x| x < c[0] - r);
-        let last = xs.partition_point(|&x| x <= c[0] + r).max(first);
-        found.clear();
-        for &j in &by_x[first..last] {
-            let d2: f64 = (0..s).map(|q| (z[j * k + q] - c[q]).powi(2)).sum();
-            if d2 <= r * r {
-                found.push(j);
-            }
-        }
-        found.sort_unstable();
-        pairs.extend(found.iter().map(|&j| (i, j)));
-    }
-    pairs
 }

@@ -23,7 +23,7 @@ impl PyBranchingTracker {
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (order, process_std, measurement_std, n_spatial, confidence, memory,
         max_misses, dt, p_detect, clutter_density, max_speed, n_confirm, confirm_llr,
-        confirm_window, delete_llr, max_per_tree, max_hypotheses, max_seeds, merge_depth, maneuver_std,
+        confirm_window, delete_llr, max_per_tree, max_hypotheses, max_seeds, max_children, merge_depth, maneuver_std,
         maneuver_prob, min_hits, final_llr, max_shared, selection, seed))]
     fn new(
         order: Vec<usize>,
@@ -44,6 +44,7 @@ impl PyBranchingTracker {
         max_per_tree: usize,
         max_hypotheses: usize,
         max_seeds: usize,
+        max_children: Option<usize>,
         merge_depth: usize,
         maneuver_std: Option<Vec<f64>>,
         maneuver_prob: f64,
@@ -72,6 +73,7 @@ impl PyBranchingTracker {
             max_per_tree,
             max_hypotheses,
             max_seeds,
+            max_children,
             merge_depth,
             maneuver_std,
             maneuver_prob,
