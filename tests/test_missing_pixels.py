@@ -29,7 +29,7 @@ def scene(model, shape, seed, missing=0.15):
     return np.where(weights > 0, z, np.nan), weights
 
 
-@pytest.mark.parametrize("row_models", ["propagated", "nominal"])
+@pytest.mark.parametrize("row_models", ["propagated", "nominal", "implied"])
 @pytest.mark.parametrize("modes", ["exact", "toeplitz"])
 @pytest.mark.parametrize("smooth", [False, True])
 @pytest.mark.parametrize("rho,order", CASES)
@@ -211,12 +211,14 @@ def psnr(estimate, clean):
 
 def test_row_models_are_checked_and_pickled():
     model = kf.ARFieldModel([0.9, 0.9], [2, 2])
-    with pytest.raises(ValueError, match="row_models must be 'propagated' or 'nominal'"):
+    message = "row_models must be 'propagated', 'nominal' or 'implied'"
+    with pytest.raises(ValueError, match=message):
         kf.ScalarRowFilter(model, 1.0, 8, row_models="exact")
-    with pytest.raises(ValueError, match="row_models must be 'propagated' or 'nominal'"):
+    with pytest.raises(ValueError, match=message):
         kf.denoise(np.ones((8, 8)), 0.1, row_models="plan")
-    filt = kf.ScalarRowFilter(model, 1.0, 8, smooth=True, row_models="nominal")
-    assert pickle.loads(pickle.dumps(filt)).row_models == "nominal"
+    for row_models in ("nominal", "implied"):
+        filt = kf.ScalarRowFilter(model, 1.0, 8, smooth=True, row_models=row_models)
+        assert pickle.loads(pickle.dumps(filt)).row_models == row_models
     assert kf.ScalarRowFilter(model, 1.0, 8).row_models == "propagated"
 
 

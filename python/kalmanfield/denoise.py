@@ -146,7 +146,7 @@ def denoise(
     window: int = 9,
     mean: float | None = None,
     threads: int | None = None,
-    row_models: Literal["nominal", "propagated"] = "nominal",
+    row_models: Literal["nominal", "propagated", "implied"] = "nominal",
 ) -> np.ndarray:
     """Denoise an image (H, W) or a stack (F, H, W) of z = x + θ (SPEC §2).
 
@@ -169,7 +169,9 @@ def denoise(
         :class:`ScalarRowFilter`). "nominal" (default): the plan's, fitted for the nominal
         noise ratio, the fast path. "propagated": refitted row by row to the weighted
         systems, +0.1–0.3 dB on camera, astronaut, coins and moon (σ = 0.1) at 3.5–5× the
-        time (README). The stationary path (adaptive=False) always uses
+        time (README); "implied": propagated from the first predicted row on, not from the
+        first row whose weights depart from the nominal ones. The stationary path
+        (adaptive=False) always uses
         :class:`ScalarRowFilter`'s default, "propagated", for its missing pixels.
     adaptive=False : one stationary model for the whole image. `model`: the field model of x;
         None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1),

@@ -609,8 +609,9 @@ fn row_models_of(name: &str) -> PyResult<RowModels> {
     match name {
         "propagated" => Ok(RowModels::Propagated),
         "nominal" => Ok(RowModels::Nominal),
+        "implied" => Ok(RowModels::Implied),
         _ => Err(PyValueError::new_err(format!(
-            "row_models must be 'propagated' or 'nominal', got {name:?}"
+            "row_models must be 'propagated', 'nominal' or 'implied', got {name:?}"
         ))),
     }
 }

@@ -620,7 +620,8 @@ def scalar_filter_plan(
         steps = [st if t < n else {"pe": pe_inf} for t, st in enumerate(steps)]
     innovation = prediction_band_of(lam[:, None, None] * (np.eye(n) - a_white @ a_white.T)[None])
     plan, prec, chol, start = [], None, None, []
-    fitted, prev_band, prev_change, models = None, None, None, 0
+    fitted, prev_band, models = None, None, 0
+    prev_change = earlier_change = None
     frozen = False  # once the bands have settled (``settled``), the model stays fixed
     for t, ((predict, i), st) in enumerate(zip(row_schedule(n, height), steps)):
         pe = 0.5 * (st["pe"] + st["pe"].transpose(0, 2, 1))
@@ -652,8 +653,8 @@ def scalar_filter_plan(
         frozen = frozen or models == MAX_ROW_MODELS
         if prev_band is not None:
             change = band_change(band, prev_band) / scale
-            frozen = frozen or settled(change, prev_change, tol)
-            prev_change = change
+            frozen = frozen or settled(change, prev_change, earlier_change, tol)
+            earlier_change, prev_change = prev_change, change
         prev_band = band
         plan.append({"prec": prec, "chol": chol, "index": 0, "predict": True, "bandwidth": bw})
     if plan:  # what ``weighted_systems`` needs to refit the row models
@@ -723,18 +724,31 @@ def band_change(band: list[np.ndarray], other: list[np.ndarray]) -> float:
     return max(float(np.max(np.abs(b - c))) for b, c in zip(band, other))
 
 
-def settled(change: float, previous: float | None, tol: float) -> bool:
-    """Whether a sequence whose latest relative change is `change` (the one before:
-    `previous`) is within `tol` of its limit: change / (1 − q) ≤ tol with q = change /
-    previous, the geometric tail the last two changes imply (twin of
-    ``scalar_row_filter.rs``'s ``settled``). At q ≥ 0.999 (not contracting yet, or
-    changes at the rounding floor) the bound is change ≤ 1e-3 tol. One row's change ≤ tol
-    alone froze slowly converging Riccatis (ρ = 0.999) far from their limit."""
+RATIO_RISE = 0.05
+"""Twin of ``scalar_row_filter.rs``'s: the most the ratio of successive changes may rise from
+one row to the next for their geometric tail to be trusted (``settled``)."""
+
+
+def settled(change: float, previous: float | None, earlier: float | None, tol: float) -> bool:
+    """Whether a sequence whose latest relative change is `change` (the two before:
+    `previous`, `earlier`) is within `tol` of its limit: change / (1 − q) ≤ tol with q =
+    change / previous, the geometric tail the last two changes imply, provided q is not rising
+    by more than RATIO_RISE against previous / earlier (a contraction that slows down is a
+    slower mode taking over) (twin of ``scalar_row_filter.rs``'s ``settled``). At q ≥ 0.999
+    (not contracting yet, or changes at the rounding floor) the bound is change ≤ 1e-3 tol.
+    One row's change ≤ tol alone froze slowly converging Riccatis (ρ = 0.999) far from their
+    limit; the tail without the rising check froze (2,2) at ρ_y = 0.9999 at its fifth row."""
     if change == 0.0:
         return True
     if previous is None:
         return False
-    q = min(change / previous, 1.0) if previous > 0 else 1.0
+
+    def ratio(a: float, b: float) -> float:
+        return min(a / b, 1.0) if b > 0 else 1.0
+
+    q = ratio(change, previous)
+    if q < 0.999 and (earlier is None or q > ratio(previous, earlier) + RATIO_RISE):
+        return False
     return change <= tol * max(1.0 - q, 1e-3)
 
 
@@ -771,14 +785,15 @@ def weighted_systems(plan, lower, weights, row_models="propagated"):
     observations; the later rows keep the plan's Λ_t down to the first row whose weights
     depart from the nominal 1/σ_θ² (beyond 1e-12 relative), and after it every row's Λ_t is
     refitted to S A_{t−1}⁻¹ Sᵀ + Q (``propagated_system``; twin of the Rust
-    ``propagated_models``); with row_models "nominal" every row keeps the plan's."""
+    ``propagated_models``); with row_models "nominal" every row keeps the plan's; with
+    "implied" every predicted row's is propagated, whatever the weights."""
     start, out = None, []
     nominal = 1.0 / plan[0]["noise_var"]
-    departed = False
+    departed = row_models == "implied"
     for step, row_weights in zip(plan, weights):
         h = lower[step["index"]]
         obs = sparse.kron(sparse.diags(row_weights), np.outer(h, h), format="csr")
-        if step["predict"] and departed and row_models == "propagated":
+        if step["predict"] and departed and row_models != "nominal":
             chol = propagated_system(plan[0], step, out[-1], obs)
         elif step["predict"]:
             chol = banded_cholesky(step["prec"] + obs, step["bandwidth"])
@@ -833,6 +848,8 @@ def scalar_row_passes(
     if plan is None:
         plan = scalar_filter_plan(rho, order, sigma, noise_var, width, height, ar_order)
     tmat, lower = row_basis(rho[0], n)
+    if weights is None and row_models == "implied":
+        weights = np.full((height, width), 1.0 / noise_var)
     if weights is None:
         chols = [step["chol"] for step in plan]
         weights = np.full((height, width), 1.0 / noise_var)

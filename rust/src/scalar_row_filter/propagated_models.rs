@@ -69,7 +69,7 @@ impl<'a> Propagation<'a> {
             innovation,
             predicted: innovation.clone(),
             inverse: None,
-            departed: false,
+            departed: filter.row_models == super::RowModels::Implied,
             rows: 0,
         })
     }
