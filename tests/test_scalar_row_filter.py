@@ -558,7 +558,7 @@ def test_a_contraction_that_slows_down_is_not_taken_for_settled():
     optimal = kf.VectorRowFilter(model, noise_var, 32).error_variance(32).mean()
     bound = kf.wiener_bound(model, noise_var, shape)
     for smooth, floor, limit in ((False, optimal, 1.02), (True, bound, 1.06)):
-        filt = kf.ScalarRowFilter(model, noise_var, 32, smooth=smooth)
+        filt = kf.ScalarRowFilter(model, noise_var, 32, smooth=smooth, row_models="propagated")
         want = ref.scalar_row_filter(z, model.rho, model.order, 1.0, noise_var, smooth=smooth)
         np.testing.assert_allclose(filt.filter(z), want, atol=1e-8 * np.abs(z).max())
         mse = exact_mse(filt, model, noise_var, shape)
@@ -669,13 +669,34 @@ def test_implied_row_models_stay_optimal_near_a_unit_root(rho, order, noise_var)
         implied = kf.ScalarRowFilter(model, noise_var, 24, smooth=smooth, row_models="implied")
         mse = exact_mse(implied, model, noise_var, shape)
         assert floor * (1 - 1e-6) <= mse < 1.001 * floor, (smooth, mse / floor)
-    default = kf.ScalarRowFilter(model, noise_var, 24, smooth=True)
-    # the regime the option is for: the default smoothed +5.1 % / +11.4 % above the bound
-    assert exact_mse(default, model, noise_var, shape) > 1.04 * bound
+    plan = kf.ScalarRowFilter(model, noise_var, 24, smooth=True, row_models="propagated")
+    # the regime the option is for: the plan's models +5.1 % / +11.4 % above the bound
+    assert exact_mse(plan, model, noise_var, shape) > 1.04 * bound
     implied = kf.ScalarRowFilter(model, noise_var, 24, row_models="implied")
     np.testing.assert_allclose(
         implied.error_variance(24), exact_mse_map(implied, model, noise_var, shape), rtol=1e-6
     )
+
+
+@pytest.mark.parametrize(
+    "rho,order,noise_var,sigma,expected",
+    [
+        ((0.9999, 0.9), (2, 2), 0.01, 1.0, "implied"),
+        ((0.999, 0.5), (2, 1), 0.4, 2.0, "implied"),  # σ_θ²/σ_x² = 0.1
+        ((0.999, 0.5), (2, 1), 0.5, 2.0, "propagated"),
+        ((0.998, 0.9), (3, 3), 0.01, 1.0, "propagated"),
+        ((0.9999, 0.9), (1, 1), 0.01, 1.0, "propagated"),  # n_y = 1: nothing compounds
+        ((0.95, 0.95), (4, 4), 1e-4, 1.0, "propagated"),
+    ],
+)
+def test_auto_row_models_take_implied_near_a_unit_root_at_high_snr(
+    rho, order, noise_var, sigma, expected
+):
+    model = kf.ARFieldModel(list(rho), list(order), sigma=sigma)
+    filt = kf.ScalarRowFilter(model, noise_var, 8)
+    assert filt.row_models == expected
+    assert pickle.loads(pickle.dumps(filt)).row_models == expected
+    assert kf.ScalarRowFilter(model, noise_var, 8, row_models="nominal").row_models == "nominal"
 
 
 @pytest.mark.parametrize("smooth", [False, True])

@@ -171,8 +171,8 @@ def denoise(
         systems, +0.1–0.3 dB on camera, astronaut, coins and moon (σ = 0.1) at 3.5–5× the
         time (README); "implied": propagated from the first predicted row on, not from the
         first row whose weights depart from the nominal ones. The stationary path
-        (adaptive=False) always uses
-        :class:`ScalarRowFilter`'s default, "propagated", for its missing pixels.
+        (adaptive=False) always uses :class:`ScalarRowFilter`'s default, "auto"
+        ("propagated", or "implied" near a unit root at high SNR).
     adaptive=False : one stationary model for the whole image. `model`: the field model of x;
         None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1),
         filtered with the Toeplitz mode set (its plan is cheap, and a model refitted per

@@ -17,6 +17,11 @@ from .wiener_bound import wiener_error_map
 _MODES = ("ends", "exact", "toeplitz")
 _ROW_MODELS = ("propagated", "nominal", "implied")
 
+IMPLIED_RHO = 0.999
+"""row_models="auto" takes "implied" for n_y ≥ 2 from this ρ_y on ..."""
+IMPLIED_RATIO = 0.1
+"""... at noise ratios σ_θ²/σ_x² up to this one (class docstring)."""
+
 
 def check_row_models(row_models: str) -> None:
     """ValueError unless `row_models` names a source of the weighted rows' models."""
@@ -24,6 +29,15 @@ def check_row_models(row_models: str) -> None:
         raise ValueError(
             f"row_models must be 'propagated', 'nominal' or 'implied', got {row_models!r}"
         )
+
+
+def auto_row_models(model: ARFieldModel, ratio: float) -> str:
+    """The row models of row_models="auto" for `model` at σ_θ²/σ_x² = `ratio`: "implied"
+    near a unit root at high SNR (n_y ≥ 2, ρ_y ≥ IMPLIED_RHO, ratio ≤ IMPLIED_RATIO), where
+    the plan's models lose up to +19 % causal / +95 % smoothed (≤ 0.4 % outside it);
+    "propagated" elsewhere."""
+    near_unit_root = model.order[0] >= 2 and model.rho[0] >= IMPLIED_RHO
+    return "implied" if near_unit_root and ratio <= IMPLIED_RATIO else "propagated"
 
 
 _MIN_ROW_MODELS = 16
@@ -115,12 +129,14 @@ class ScalarRowFilter(RowFilter):
     high SNR the plan's models, fitted to the optimal filter's P_e,t, compound their misfit
     down the rows: exact MSEs on 32² at σ_θ²/σ_x² = 0.01, ρ_x = 0.9, causal against
     :class:`VectorRowFilter` / smoothed against :func:`wiener_bound`: (2,2) at ρ_y = 0.9999
-    +1.2 % / +5.1 % with the default, +0.00 % / +0.00 % implied; (3,3) at ρ_y = 0.9997 +1.1 % /
-    +5.4 %, implied +0.00 % / +0.00 %; (2,2) at ρ = 0.99979 on both axes, 21 × 4, +19 % /
-    +95 %, implied +0.00 %. Over 45 cases (24², n_y = 2–4, ρ_y = 0.99–0.9999) never more
-    than 0.07 % worse than the default. Cost: the propagated rows' (class docstring above)
-    on every image, 14–113× the default's time; choose it for n_y ≥ 2 with ρ_y ≳ 0.999 at
-    σ_x²/σ_θ² ≳ 100.
+    +1.2 % / +5.1 % with the plan's models ("propagated"), +0.00 % / +0.00 % implied;
+    (3,3) at ρ_y = 0.9997 +1.1 % / +5.4 %, implied +0.00 % / +0.00 %; (2,2) at ρ = 0.99979
+    on both axes, 21 × 4, +19 % / +95 %, implied +0.00 %. Over 45 cases (24², n_y = 2–4,
+    ρ_y = 0.99–0.9999) never more than 0.07 % worse than the plan's models. Cost: the
+    propagated rows' (above) on every image, 14–113× the plan's time. row_models="auto"
+    (default) takes it for n_y ≥ 2, ρ_y ≥ 0.999 and σ_θ²/σ_x² ≤ 0.1 (the plan's models
+    lost up to +19 % causal, +95 % smoothed there; ≤ 0.4 % at ρ_y ≤ 0.998 or σ_θ²/σ_x² = 1,
+    24², ρ_x = 0.5–0.99) and "propagated" otherwise; :attr:`row_models` tells which.
     """
 
     __slots__ = ("_ar_order", "_modes", "_row_models")
@@ -136,19 +152,18 @@ class ScalarRowFilter(RowFilter):
         mean: float = 0.0,
         threads: int | None = None,
         modes: Literal["ends", "exact", "toeplitz"] = "ends",
-        row_models: Literal["propagated", "nominal", "implied"] = "propagated",
+        row_models: Literal["auto", "propagated", "nominal", "implied"] = "auto",
     ) -> None:
         unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
+        chosen = auto_row_models(self._model, ratio) if row_models == "auto" else row_models
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
         if modes not in _MODES:
             raise ValueError(f"modes must be 'ends', 'exact' or 'toeplitz', got {modes!r}")
         self._modes = modes
-        check_row_models(row_models)
-        self._row_models = row_models
+        check_row_models(chosen)
+        self._row_models = chosen
         self._check_memory()
-        self._core = _core.ScalarRowFilter(
-            unit, ratio, self._width, self._ar_order, modes, row_models
-        )
+        self._core = _core.ScalarRowFilter(unit, ratio, self._width, self._ar_order, modes, chosen)
 
     def _check_memory(self) -> None:
         """MemoryError for rows too wide to plan: a row system's band (W n_y (b + 1) doubles)
@@ -170,8 +185,8 @@ class ScalarRowFilter(RowFilter):
 
     @property
     def row_models(self) -> str:
-        """ "propagated", "nominal" or "implied": where the row models come from (class
-        docstring)."""
+        """ "propagated", "nominal" or "implied" (what "auto" chose): where the row models
+        come from (class docstring)."""
         return self._row_models
 
     @property
