@@ -155,12 +155,16 @@ class ScalarRowFilter(RowFilter):
         row_models: Literal["auto", "propagated", "nominal", "implied"] = "auto",
     ) -> None:
         unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
+        if row_models not in ("auto", *_ROW_MODELS):
+            raise ValueError(
+                "row_models must be 'auto', 'propagated', 'nominal' or 'implied', "
+                f"got {row_models!r}"
+            )
         chosen = auto_row_models(self._model, ratio) if row_models == "auto" else row_models
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
         if modes not in _MODES:
             raise ValueError(f"modes must be 'ends', 'exact' or 'toeplitz', got {modes!r}")
         self._modes = modes
-        check_row_models(chosen)
         self._row_models = chosen
         self._check_memory()
         self._core = _core.ScalarRowFilter(unit, ratio, self._width, self._ar_order, modes, chosen)
