@@ -434,3 +434,20 @@ def test_bad_input():
         kf.estimate_noise_var(np.where(np.add.outer(range(8), range(8)) % 2, np.nan, noisy))
     with pytest.raises(ValueError, match="every pixel is NaN"):
         kf.model_from_noisy(np.full((8, 8), np.nan))
+
+
+def test_a_stack_frame_with_no_observed_pixel():
+    """The stationary mode returns such a frame as the mean and the other frames as alone
+    (the frames are independent); the adaptive mode has no moments there and refuses."""
+    model = kf.ARFieldModel([0.8, 0.9], [1, 1])
+    rng = np.random.default_rng(3)
+    z = np.stack([model.sample((24, 32), seed=s) for s in range(3)])
+    z += 0.7 * rng.standard_normal(z.shape)
+    z[1] = np.nan
+    out = kf.denoise(z, 0.49, model, adaptive=False, mean=0.25)
+    np.testing.assert_array_equal(out[1], np.full((24, 32), 0.25))
+    for f in (0, 2):
+        alone = kf.denoise(z[f], 0.49, model, adaptive=False, mean=0.25)
+        np.testing.assert_allclose(out[f], alone, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="no observed pixel"):
+        kf.denoise(z, 0.49, model)

@@ -125,6 +125,18 @@ def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
     return out
 
 
+def power_of_two_exponent(deviations: np.ndarray) -> int | None:
+    """e with 2^e the power of two nearest max |deviations| (None when they are all 0):
+    dividing by 2^e is exact (the same bits wherever the unscaled values did not overflow or
+    underflow), and sums of squares of the scaled values stay inside float64 whatever the
+    data's magnitude. ValueError when the deviations themselves overflow."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        peak = float(np.max(np.abs(deviations)))
+    if not np.isfinite(peak):
+        raise ValueError("the data's deviations from their mean overflow float64: rescale them")
+    return int(np.round(np.log2(peak))) if peak > 0 else None
+
+
 def grid_shape(shape: ShapeLike, ndim: int, name: str = "shape") -> tuple[int, ...]:
     """A shape of `ndim` positive ints."""
     if isinstance(shape, numbers.Integral):

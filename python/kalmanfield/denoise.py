@@ -197,6 +197,10 @@ def denoise(
     the model fit and the box moments, given weight 0 by the filter and filled by its
     estimate from the neighbouring pixels (a box without an observed pixel is widened,
     radius 2r + 1, …, until it holds one). method="vector" needs every pixel.
+    A frame of a stack with no observed pixel: the adaptive mode raises ValueError (it has
+    no local moments to adapt to); the stationary mode (adaptive=False) returns that frame as
+    the field mean, the filter's answer when nothing is observed (the frames of a stack are
+    filtered independently).
     """
     if method not in ("scalar", "vector"):
         raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")

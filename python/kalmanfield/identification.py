@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import observed, positive_int, thread_count
+from ._validation import observed, positive_int, power_of_two_exponent, thread_count
 from .ar_field_model import ARFieldModel
 
 #: Highest multiplicity `identify` considers.
@@ -208,17 +208,11 @@ def _model_axes(axes: Sequence[int] | None, ndim: int) -> tuple[int, ...]:
 
 
 def _unit_scaled(centred: np.ndarray, valid: np.ndarray, complete: bool) -> tuple[np.ndarray, int]:
-    """(centred · 2^−e, e) with 2^e the power of two nearest the largest |value|: exact (the
-    same bits as unscaled wherever those did not overflow or underflow), and the sums of
-    squares then stay inside float64 for data of any magnitude (1e-160 data had underflowed
-    to a wrong ρ, 1e154 ones overflowed)."""
-    with np.errstate(over="ignore"):
-        peak = float(np.max(np.abs(centred if complete else centred[valid])))
-    if not np.isfinite(peak):
-        raise ValueError("the data's deviations from their mean overflow float64: rescale them")
-    if not peak > 0:
+    """(centred · 2^−e, e) by :func:`power_of_two_exponent` (1e-160 data had underflowed to
+    a wrong ρ, 1e154 ones overflowed)."""
+    exponent = power_of_two_exponent(centred if complete else centred[valid])
+    if exponent is None:
         raise ValueError("data are constant over their valid pixels: there is no model to fit")
-    exponent = int(np.round(np.log2(peak)))
     return np.ldexp(centred, -exponent), exponent
 
 

@@ -23,12 +23,13 @@ IMPLIED_RATIO = 0.1
 """... at noise ratios σ_θ²/σ_x² up to this one (class docstring)."""
 
 
-def check_row_models(row_models: str) -> None:
-    """ValueError unless `row_models` names a source of the weighted rows' models."""
-    if row_models not in _ROW_MODELS:
-        raise ValueError(
-            f"row_models must be 'propagated', 'nominal' or 'implied', got {row_models!r}"
-        )
+def check_row_models(row_models: str, auto: bool = False) -> None:
+    """ValueError unless `row_models` names a source of the row models (or, with `auto`,
+    is "auto")."""
+    choices = ("auto", *_ROW_MODELS) if auto else _ROW_MODELS
+    if row_models not in choices:
+        names = ", ".join(repr(c) for c in choices[:-1])
+        raise ValueError(f"row_models must be {names} or {choices[-1]!r}, got {row_models!r}")
 
 
 def auto_row_models(model: ARFieldModel, ratio: float) -> str:
@@ -155,11 +156,7 @@ class ScalarRowFilter(RowFilter):
         row_models: Literal["auto", "propagated", "nominal", "implied"] = "auto",
     ) -> None:
         unit, ratio = self._set_parameters(model, noise_var, width, smooth, mean, threads)
-        if row_models not in ("auto", *_ROW_MODELS):
-            raise ValueError(
-                "row_models must be 'auto', 'propagated', 'nominal' or 'implied', "
-                f"got {row_models!r}"
-            )
+        check_row_models(row_models, auto=True)
         chosen = auto_row_models(self._model, ratio) if row_models == "auto" else row_models
         self._ar_order = None if ar_order is None else positive_int(ar_order, "ar_order")
         if modes not in _MODES:

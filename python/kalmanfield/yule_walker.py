@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import observed, real_array
+from ._validation import observed, power_of_two_exponent, real_array
 from .sample_correlation import sample_correlation
 
 
@@ -72,19 +72,17 @@ def yule_walker(
             f"some lags of the order-{(n_y, n_x)} template have no pair of observed pixels"
         )
     kept = values[valid]
+    # by a power of two (exact): the squares stay inside float64 (1e-170 data underflowed)
     with np.errstate(over="ignore", invalid="ignore"):
-        peak = float(np.max(np.abs(kept - kept.mean())))
-    if not np.isfinite(peak):
-        raise ValueError("the data's deviations from their mean overflow float64: rescale them")
-    # by a power of two: exact, and the squares stay inside float64 (1e-170 data underflowed)
-    exponent = int(np.round(np.log2(peak))) if peak > 0 else 0
+        mean = float(kept.mean())
+        exponent = power_of_two_exponent(kept - mean)
     with np.errstate(over="ignore", under="ignore"):
-        variance = float(np.ldexp(np.var(np.ldexp(kept, -exponent)), 2 * exponent))
+        variance = float(np.ldexp(np.var(np.ldexp(kept, -(exponent or 0))), 2 * (exponent or 0)))
     if not np.isfinite(variance):
         raise ValueError("the data's variance overflows float64: rescale them")
-    if peak > 0 and not variance > 0:
+    if exponent is not None and not variance > 0:
         raise ValueError("the data's variance underflows float64: rescale them")
-    return yule_walker_from_covariance(variance * correlation, float(values[valid].mean()))
+    return yule_walker_from_covariance(variance * correlation, mean)
 
 
 def yule_walker_from_covariance(covariance: np.ndarray, mean: float = 0.0) -> YuleWalkerModel:

@@ -123,11 +123,10 @@ fn check_rounding_gain<T: Float>(axis: &AxisModel) -> Result<()> {
     let gain = 1.0 / axis.beta_tilde_sq().sqrt();
     let eps = T::epsilon().to_f64().unwrap_or(f64::EPSILON);
     if gain * eps > MAX_ROUNDING_GAIN {
-        let name = if eps > 1e-10 { "float32" } else { "float64" };
-        let advice = if eps > 1e-10 {
-            "use float64"
+        let (name, advice) = if eps > 1e-10 {
+            ("float32", "use float64")
         } else {
-            "lower rho or the multiplicity"
+            ("float64", "lower rho or the multiplicity")
         };
         return Err(FieldError::InvalidParameter(format!(
             "an axis with rho = {} and multiplicity {} amplifies the rounding of {name} \
