@@ -418,6 +418,51 @@ def test_stack_pickle_and_mean():
     assert resumed.ar_order == 2 and "ScalarRowFilter" in repr(resumed)
 
 
+@pytest.mark.parametrize("kind", ["scalar", "vector"])
+def test_out_receives_the_same_bits_and_is_returned(kind):
+    """filter(z, out=buf) fills `buf` with filter(z)'s bits on every path (plain, a stack,
+    missing pixels, a noise map), the mean included; a reused buffer keeps nothing."""
+    model = kf.ARFieldModel([0.9, 0.8], [2, 1], sigma=3.0)
+    cls = kf.ScalarRowFilter if kind == "scalar" else kf.VectorRowFilter
+    f = cls(model, 2.0, 20, smooth=True, mean=5.0)
+    stack = np.stack([noisy(model, (12, 20), 2.0, s)[1] + 5.0 for s in range(3)])
+    holes = stack.copy()
+    holes[:, 3, ::4] = np.nan
+    cases = [(stack[0], {}), (stack, {})]
+    if kind == "scalar":
+        cases += [(holes, {}), (stack, {"noise_var": np.linspace(1.0, 3.0, 20)})]
+    buf = np.full(stack.shape, np.nan)
+    for z, kw in cases:
+        target = buf[: len(z)] if z.ndim == 3 else buf[0]
+        target[...] = np.nan
+        assert f.filter(z, out=target, **kw) is target
+        np.testing.assert_array_equal(target, f.filter(z, **kw))
+
+
+@pytest.mark.parametrize(
+    ("out", "exc", "match"),
+    [
+        ([[0.0] * 20] * 12, TypeError, "NumPy array"),
+        (np.zeros((12, 20), np.float32), TypeError, "float64"),
+        (np.zeros((12, 21)), ValueError, "shape"),
+        (np.zeros((20, 12)).T, ValueError, "C-contiguous"),
+        ("z", ValueError, "shares memory"),
+    ],
+)
+def test_bad_out(out, exc, match):
+    model = kf.ARFieldModel([0.9, 0.8], [1, 2])
+    z = noisy(model, (12, 20), 1.0, 0)[1]
+    if isinstance(out, str):
+        out = z
+    for f in (kf.ScalarRowFilter(model, 1.0, 20), kf.VectorRowFilter(model, 1.0, 20)):
+        with pytest.raises(exc, match=match):
+            f.filter(z, out=out)
+    frozen = np.zeros((12, 20))
+    frozen.flags.writeable = False
+    with pytest.raises(ValueError, match="writeable"):
+        kf.ScalarRowFilter(model, 1.0, 20).filter(z, out=frozen)
+
+
 def test_estimate_noise_var_of_white_noise_ignores_planes():
     noise = np.random.default_rng(11).standard_normal((1024, 1024))
     alone = kf.estimate_noise_var(noise)

@@ -81,6 +81,27 @@ def images(
     return arr
 
 
+def output_array(out: object, arr: np.ndarray) -> np.ndarray:
+    """`out` checked as the destination of a filter of the images `arr`, or a new array (None).
+    A given `out` must be a writeable, C-contiguous float64 ndarray of the images' shape
+    that shares no memory with them (the smoothing pass reads the images again after the
+    forward pass has written its rows): a stream of frames can so reuse one buffer and skip
+    the page faults of a fresh output (~5 ms per 2048² frame on the Intel VM of 2026-12-01)."""
+    if out is None:
+        return np.empty_like(arr)
+    if not isinstance(out, np.ndarray):
+        raise TypeError(f"out must be a NumPy array, got {type(out).__name__}")
+    if out.dtype != np.float64:
+        raise TypeError(f"out must be float64, got {out.dtype}")
+    if out.shape != arr.shape:
+        raise ValueError(f"out has shape {out.shape}, the images {arr.shape}")
+    if not out.flags.c_contiguous or not out.flags.writeable:
+        raise ValueError("out must be C-contiguous and writeable")
+    if np.may_share_memory(out, arr):
+        raise ValueError("out shares memory with the images: the filter reads them after writing")
+    return out
+
+
 class RowFilter:
     """Common front of :class:`VectorRowFilter` and :class:`ScalarRowFilter`: the checked
     parameters, their properties and :meth:`filter`. Subclasses set ``_core``."""
@@ -124,18 +145,24 @@ class RowFilter:
         """Whether the RTS pass over the rows runs."""
         return self._smooth
 
-    def filter(self, z: npt.ArrayLike) -> np.ndarray:
+    def filter(self, z: npt.ArrayLike, *, out: np.ndarray | None = None) -> np.ndarray:
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). Returns float64 of z's shape. NaN pixels, and pixels with |z − mean| >
-        2**1000 ≈ 1e301 (whose sums would leave float64), are refused (ValueError)."""
-        return self._filter_checked(images(z, self._width))
+        released). Returns float64 of z's shape, or `out` (see :func:`output_array`) filled
+        with it. NaN pixels, and pixels with |z − mean| > 2**1000 ≈ 1e301 (whose sums would
+        leave float64), are refused (ValueError)."""
+        return self._filter_checked(images(z, self._width), out=out)
 
-    def _filter_checked(self, arr: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    def _filter_checked(
+        self,
+        arr: np.ndarray,
+        weights: np.ndarray | None = None,
+        out: np.ndarray | None = None,
+    ) -> np.ndarray:
         """:meth:`filter` on images already checked by :func:`images`; `weights` (per-pixel
         1/σ_θ², ScalarRowFilter only) go to the kernel when given."""
+        out = output_array(out, arr)
         if self._mean:
             arr = arr - self._mean
-        out = np.empty_like(arr)
         extra = () if weights is None else (weights,)
         self._core.filter_into(arr, out, self._smooth, self._threads, *extra)
         if self._mean:

@@ -196,13 +196,21 @@ class ScalarRowFilter(RowFilter):
         comes from the whole row's eigenbasis or from the Fourier modes alone)."""
         return self._core.ends_span()
 
-    def filter(self, z: npt.ArrayLike, noise_var: npt.ArrayLike | None = None) -> np.ndarray:
+    def filter(
+        self,
+        z: npt.ArrayLike,
+        noise_var: npt.ArrayLike | None = None,
+        *,
+        out: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
         released). NaN pixels are missing observations. `noise_var`: per-pixel σ_θ² map
         broadcastable to z's shape (> 0; inf = missing); None = the filter's noise_var.
         Pixels with |z − mean| > 2**1000 ≈ 1e301 are refused (ValueError), and so is an
         estimate that overflows float64 (|z − mean|·σ_x²/σ_θ² too large: pixels far from the
-        mean at a tiny noise ratio; the vector filter copes). Returns float64 of z's shape."""
+        mean at a tiny noise ratio; the vector filter copes). Returns float64 of z's shape,
+        or `out` filled with it (a float64 C-contiguous array of z's shape that shares no
+        memory with z: a buffer reused over a stream of frames)."""
         if noise_var is None:
             # the kernel checks every pixel in its own pass over the row: no pass here
             # unless it finds a NaN (then a missing pixel) or infinite one (refused below)
@@ -210,17 +218,17 @@ class ScalarRowFilter(RowFilter):
                 arr = images(z, self._width, finite=False)
                 if self._row_models == "implied":
                     self._check_models_memory(arr.shape)
-                return self._filter_checked(arr)
+                return self._filter_checked(arr, out=out)
             except _core.NonFiniteError:
                 pass
         arr = images(z, self._width, missing=True)
         missing = np.isnan(arr)
         if noise_var is None and not missing.any():
-            return self._filter_checked(arr)
+            return self._filter_checked(arr, out=out)
         self._check_models_memory(arr.shape)
         weights = self._weights(arr.shape, noise_var)
         weights[missing] = 0.0  # the kernel ignores the (NaN) value of a weight-0 pixel
-        return self._filter_checked(arr, weights)
+        return self._filter_checked(arr, weights, out)
 
     def _check_models_memory(self, shape: tuple[int, ...]) -> None:
         """MemoryError when the propagated row models that a smoothed pass keeps for weighted
