@@ -86,7 +86,8 @@ def output_array(out: object, arr: np.ndarray) -> np.ndarray:
     A given `out` must be a writeable, C-contiguous float64 ndarray of the images' shape
     that shares no memory with them (the smoothing pass reads the images again after the
     forward pass has written its rows): a stream of frames can so reuse one buffer and skip
-    the page faults of a fresh output (~5 ms per 2048² frame on the Intel VM of 2026-12-01)."""
+    the page faults of a fresh output (~5 ms per 2048² frame on the Intel VM of 2026-12-01).
+    When the filter raises, what `out` holds is unspecified."""
     if out is None:
         return np.empty_like(arr)
     if not isinstance(out, np.ndarray):
