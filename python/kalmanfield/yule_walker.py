@@ -76,8 +76,9 @@ def yule_walker(
     with np.errstate(over="ignore", invalid="ignore"):
         mean = float(kept.mean())
         exponent = power_of_two_exponent(kept - mean)
+    shift = 0 if exponent is None else exponent
     with np.errstate(over="ignore", under="ignore"):
-        variance = float(np.ldexp(np.var(np.ldexp(kept, -(exponent or 0))), 2 * (exponent or 0)))
+        variance = float(np.ldexp(np.var(np.ldexp(kept, -shift)), 2 * shift))
     if not np.isfinite(variance):
         raise ValueError("the data's variance overflows float64: rescale them")
     if exponent is not None and not variance > 0:
