@@ -66,7 +66,7 @@ def assert_twins_agree(rust, ref) -> None:
         for col in ["frame", "particle", "coasted", "detection"]:
             if col in a:
                 np.testing.assert_array_equal(a[col].to_numpy(), b[col].to_numpy())
-    pd.testing.assert_frame_equal(rust.stats(), reference_stats(ref), check_exact=True)
+    pd.testing.assert_frame_equal(rust.stats()[STATS], reference_stats(ref), check_exact=True)
     assert rust.frame == ref.frame
     assert rust.n_hypotheses == ref.h.size
 
@@ -596,6 +596,157 @@ def test_corrupt_counter_in_state_is_an_error_not_an_abort():
     assert "ValueError" in proc.stdout
 
 
+# The sections of the state bytes (format 2), in order: i = int64, f = float64, b = bool.
+STATE_SECTIONS = (
+    [("widths", "i"), ("node.parent", "i"), ("node.frame", "i"), ("node.meas", "i")]
+    + [("node.state", "f"), ("node.index", "f"), ("node.llr", "f")]
+    + [(f"h.{n}", "i") for n in "node tree n_inc hits miss node_last recent cur start".split()]
+    + [(f"h.{n}", "f") for n in "x p inc i_tot llr t_last pos_last llr_last".split()]
+    + [("h.conf", "b"), ("scalars", "i"), ("time", "f"), ("frame_offsets", "i")]
+    + [("lo", "f"), ("hi", "f"), ("n_trees", "i"), ("tree.id", "i"), ("tree.confirmed", "b")]
+    + [("tree.candidate", "i"), ("tree.candidate_llr", "f")]
+    + [("finished.leaf", "i"), ("finished.score", "f")]
+    + [("online.frame", "i"), ("online.tree", "i"), ("online.position", "f")]
+    + [("online.coasted", "b"), ("online.llr", "f"), ("stats", "i")]
+)
+_DTYPES = {"i": "<i8", "f": "<f8", "b": "u1"}
+
+
+def decode_state(raw: bytes) -> list[np.ndarray]:
+    """The sections of format-2 state bytes (after the 8-byte magic)."""
+    assert raw[:8] == b"KFBRT002"
+    out, at = [], 8
+    for _, kind in STATE_SECTIONS:
+        (n,) = np.frombuffer(raw, "<u8", 1, at)
+        size = int(n) * np.dtype(_DTYPES[kind]).itemsize
+        out.append(np.frombuffer(raw, _DTYPES[kind], int(n), at + 8).copy())
+        at += 8 + size
+    assert at == len(raw)
+    return out
+
+
+def encode_state(sections: list[np.ndarray]) -> bytes:
+    parts = [b"KFBRT002"]
+    for values in sections:
+        parts += [np.uint64(len(values)).tobytes(), values.tobytes()]
+    return b"".join(parts)
+
+
+def corruptions():
+    """(section, position, value) to write into a mid-stream state."""
+    values = {"i": [2**63 - 1, -(2**63), -3, 2**40], "f": [np.nan, np.inf, -np.inf, 1e308]}
+    for s, (name, kind) in enumerate(STATE_SECTIONS):
+        for value in values.get(kind, []):
+            for position in (0, -1):
+                yield s, position, value
+
+
+@pytest.fixture(scope="module")
+def mid_stream_state():
+    """A state with every section non-empty (a finished track too: the target vanishes after
+    frame 12) and the frames that follow it."""
+    frames = list(bouncing_target_in_clutter(24, n_clutter=5, side=100.0))
+    frames = [z if f < 12 else z[1:] for f, z in enumerate(frames)]
+    tracker = run(kf.BranchingTracker, frames[:18], maneuver_std=1.0, clutter_density=1e-3)
+    return tracker.__getstate__(), frames[18:]
+
+
+def test_state_decoder_round_trips(mid_stream_state):
+    state, _ = mid_stream_state
+    sections = decode_state(state["state"])
+    assert encode_state(sections) == state["state"]
+    assert all(len(v) for v in sections[:-1])  # every section is exercised below
+
+
+def test_corrupt_state_values_are_caught_at_load_or_harmless(mid_stream_state):
+    """Any count, id or float of the state overwritten by an extreme value: the load raises
+    ValueError, or the tracker goes on with finite answers (never a panic, never NaN). NaN
+    and ±inf are always caught at load: every float of a state is finite."""
+    state, frames = mid_stream_state
+    sections = decode_state(state["state"])
+    for s, position, value in corruptions():
+        bad = [v.copy() for v in sections]
+        bad[s][position] = value
+        clone = kf.BranchingTracker.__new__(kf.BranchingTracker)
+        case = f"{STATE_SECTIONS[s][0]}[{position}] = {value}"
+        try:
+            clone.__setstate__({**state, "state": encode_state(bad)})
+        except ValueError:
+            continue
+        assert not (isinstance(value, float) and not np.isfinite(value)), case
+        try:
+            for z in frames:
+                clone.update(z)
+        except ValueError:
+            continue
+        for online in (False, True):
+            numbers = clone.tracks(online=online).select_dtypes("number").to_numpy(float)
+            assert np.isfinite(numbers).all(), case
+
+
+def test_huge_increment_count_is_refused_at_load(mid_stream_state):
+    """The sweep's case: n_inc of the first live sequence set to 2**63 − 1 panicked with an
+    index out of bounds in the next update."""
+    state, _ = mid_stream_state
+    sections = decode_state(state["state"])
+    n_inc = [name for name, _ in STATE_SECTIONS].index("h.n_inc")
+    sections[n_inc][0] = 2**63 - 1
+    clone = kf.BranchingTracker.__new__(kf.BranchingTracker)
+    with pytest.raises(ValueError, match="corrupt: sequence counters"):
+        clone.__setstate__({**state, "state": encode_state(sections)})
+
+
+def test_version_1_state_resumes_like_an_unbroken_run():
+    """A state pickled by 0.1.0 (format 1: every track tree ever made) resumes; the rest of
+    the run gives the tracks an unbroken run of today's tracker gives."""
+    with open(Path(__file__).with_name("data") / "tracker_state_v1.pickle", "rb") as f:
+        fixture = pickle.load(f)
+    state, frames = fixture["state"], fixture["frames"]
+    assert state["state"][:8] == b"KFBRT001"
+    resumed = kf.BranchingTracker.__new__(kf.BranchingTracker)
+    resumed.__setstate__(state)
+    unbroken = kf.BranchingTracker(2, **state["config"])
+    for z in frames[: resumed.frame]:
+        unbroken.update(z)
+    for z in frames[resumed.frame :]:
+        resumed.update(z)
+        unbroken.update(z)
+    assert len(unbroken.tracks()) > 0
+    pd.testing.assert_frame_equal(resumed.tracks(), unbroken.tracks(), check_exact=True)
+    pd.testing.assert_frame_equal(
+        resumed.tracks(online=True), unbroken.tracks(online=True), check_exact=True
+    )
+    pd.testing.assert_frame_equal(
+        resumed.stats()[STATS], unbroken.stats()[STATS], check_exact=True
+    )
+
+
+def bouncing_target_in_clutter(n_frames, n_clutter=200, side=500.0, seed=0):
+    """Frames of one target bouncing in a side × side box among uniform clutter points."""
+    rng = np.random.default_rng(seed)
+    position, velocity = np.array([side / 2, side / 2]), np.array([1.5, -1.0])
+    for _ in range(n_frames):
+        position = position + velocity
+        velocity[(position < 0) | (position > side)] *= -1
+        position = np.clip(position, 0, side)
+        noisy = position + rng.normal(0, 0.5, 2)
+        yield np.vstack([noisy, rng.uniform(0, side, (n_clutter, 2))])
+
+
+def test_work_per_frame_does_not_grow_with_the_frames_before():
+    """A long run (1 target, 200 clutter points per frame): the per-frame work (bookkeeping
+    records visited, live sequences, children) of frames 2000–2500 is that of frames
+    300–800. Before the live-tree map, closing dead trees scanned every tree ever made and
+    pruning sized its tables by the span of tree ids: 138k → 490k records per frame."""
+    tracker = kf.BranchingTracker(2, process_std=0.1, measurement_std=0.5)
+    for z in bouncing_target_in_clutter(2500):
+        tracker.update(z)
+    stats = tracker.stats()
+    early, late = stats.iloc[300:800].mean(), stats.iloc[2000:2500].mean()
+    for column in ["bookkeeping", "live_before", "children"]:
+        assert late[column] <= 1.25 * early[column], column
+
+
 # ------------------------------------------------------------------------------- 6. bad input
 @pytest.mark.parametrize(
     "z,error,match",
@@ -745,7 +896,7 @@ def test_empty_frames_coast_and_empty_tracker_has_the_columns():
     assert list(empty.tracks(online=True).columns) == [
         "frame", "particle", "x", "y", "p2", "coasted", "score",
     ]  # fmt: skip
-    assert list(empty.stats().columns) == STATS and len(empty.stats()) == 0
+    assert list(empty.stats().columns) == [*STATS, "bookkeeping"] and len(empty.stats()) == 0
     assert empty.frame == 0 and empty.time is None and empty.n_hypotheses == 0
 
     tracker = kf.BranchingTracker(2, clutter_density=1e-3, max_misses=3)

@@ -53,7 +53,7 @@ __all__ = ["BranchingTracker"]
 #: beyond ~1e154 those squares leave float64 (1e200 gave NaN tracks)
 MAX_MEASUREMENT = 1e150
 
-_STATS_COLUMNS = ["measurements", "live_before", "children", "live", "seeds"]
+_STATS_COLUMNS = ["measurements", "live_before", "children", "live", "seeds", "bookkeeping"]
 
 
 def _per_param(value: Any, k: int, name: str, kind: type = float) -> list:
@@ -341,7 +341,9 @@ class BranchingTracker:
 
     def stats(self) -> pd.DataFrame:
         """Per frame: measurements, live sequences before, children formed, live after
-        pruning, new sequences (the cost of each frame)."""
+        pruning, new sequences, and the records the frame's bookkeeping visited (track trees,
+        pruning's per-tree and per-measurement tables, nodes scanned by a compaction): the
+        cost of each frame, which depends on the scene, not on how many frames came before."""
         return pd.DataFrame(self._core.stats(), columns=_STATS_COLUMNS)
 
     def detection_frame(self, detection: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,20 @@
 //! The tracker's dynamic state as bytes (the pickled form; the configuration travels
 //! separately). Little-endian, length-prefixed arrays, a magic tag and the state widths, so a
-//! byte string from another configuration or a truncated one is an error, not a panic.
+//! byte string from another configuration or a truncated one is an error, not a panic; a
+//! loaded state is checked whole (every count against the arrays it indexes, every id in its
+//! range, every float finite) before it replaces the tracker's, so a corrupt one is an error
+//! at load time, never a panic or NaN tracks later.
+//!
+//! Version 2 stores the live track trees only (id, confirmed, candidate); version 1 (every
+//! tree ever made, with an alive flag, and five statistics per frame) still loads.
 
-use super::hypotheses::{Hypotheses, NONE};
-use super::tracker::{BranchingTracker, FrameStats, OnlineAnswer};
+use super::config::MAX_TIME;
+use super::hypotheses::{Hypotheses, MISS, NONE};
+use super::tracker::{BranchingTracker, FrameStats, OnlineAnswer, Tree};
 use crate::error::{FieldError, Result};
 
-const MAGIC: &[u8; 8] = b"KFBRT001";
+const MAGIC: &[u8; 8] = b"KFBRT002";
+const MAGIC_V1: &[u8; 8] = b"KFBRT001";
 
 #[derive(Default)]
 struct Writer(Vec<u8>);
@@ -37,6 +45,23 @@ fn corrupt() -> FieldError {
     FieldError::InvalidParameter(
         "the tracker state is truncated or was saved by another version/configuration".into(),
     )
+}
+
+fn inconsistent(what: &str) -> FieldError {
+    FieldError::InvalidParameter(format!("the tracker state is corrupt: {what}"))
+}
+
+/// `Err(inconsistent(what))` unless `ok`.
+fn check(ok: bool, what: &str) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(inconsistent(what))
+    }
+}
+
+fn all_finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
+    values.into_iter().all(|v| v.is_finite())
 }
 
 impl Reader<'_> {
@@ -103,10 +128,9 @@ impl BranchingTracker {
             &h.miss,
             &h.node_last,
             &h.recent,
+            &h.cur,
+            &h.start,
         ] {
-            w.i64s(v);
-        }
-        for v in [&h.cur, &h.start] {
             w.i64s(v);
         }
         for v in [
@@ -132,10 +156,17 @@ impl BranchingTracker {
         w.i64s(&self.frame_offsets);
         w.f64s(&self.lo);
         w.f64s(&self.hi);
-        w.bools(&self.tree_conf);
-        w.i64s(&self.tree_cand);
-        w.f64s(&self.tree_cand_llr);
-        w.bools(&self.tree_alive);
+        w.i64s(&[self.n_trees]);
+        w.i64s(&self.trees.keys().copied().collect::<Vec<_>>());
+        w.bools(&self.trees.values().map(|t| t.confirmed).collect::<Vec<_>>());
+        w.i64s(&self.trees.values().map(|t| t.candidate).collect::<Vec<_>>());
+        w.f64s(
+            &self
+                .trees
+                .values()
+                .map(|t| t.candidate_llr)
+                .collect::<Vec<_>>(),
+        );
         w.i64s(&self.finished.iter().map(|f| f.0).collect::<Vec<_>>());
         w.f64s(&self.finished.iter().map(|f| f.1).collect::<Vec<_>>());
         let o = &self.online;
@@ -147,7 +178,16 @@ impl BranchingTracker {
         let stats: Vec<i64> = self
             .stats
             .iter()
-            .flat_map(|s| [s.measurements, s.live_before, s.children, s.live, s.seeds])
+            .flat_map(|s| {
+                [
+                    s.measurements,
+                    s.live_before,
+                    s.children,
+                    s.live,
+                    s.seeds,
+                    s.bookkeeping,
+                ]
+            })
             .map(|v| v as i64)
             .collect();
         w.i64s(&stats);
@@ -155,9 +195,12 @@ impl BranchingTracker {
     }
 
     /// Restores the dynamic state saved by `state_bytes` (the configuration must be the same).
+    /// Nothing changes unless the whole state loads and passes every check.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<()> {
         let mut r = Reader(bytes);
-        if r.bytes(MAGIC.len())? != MAGIC {
+        let magic = r.bytes(MAGIC.len())?;
+        let v1 = magic == MAGIC_V1;
+        if magic != MAGIC && !v1 {
             return Err(corrupt());
         }
         let wd = self.w;
@@ -201,17 +244,20 @@ impl BranchingTracker {
         }
         t.frame = scalars[0];
         t.n_meas = scalars[1];
+        check(scalars[2] > 0, "compaction threshold")?;
         t.compact_at = scalars[2] as usize;
         t.t = (scalars[3] != 0).then_some(time[0]);
         t.frame_offsets = r.i64s()?;
         t.lo = r.f64s()?;
         t.hi = r.f64s()?;
-        t.tree_conf = r.bools()?;
-        t.tree_cand = r.i64s()?;
-        t.tree_cand_llr = r.f64s()?;
-        t.tree_alive = r.bools()?;
+        if v1 {
+            t.read_trees_v1(&mut r)?;
+        } else {
+            t.read_trees(&mut r)?;
+        }
         let leaves = r.i64s()?;
         let scores = r.f64s()?;
+        check(leaves.len() == scores.len(), "finished tracks")?;
         t.finished = leaves.into_iter().zip(scores).collect();
         t.online = OnlineAnswer {
             frame: r.i64s()?,
@@ -220,110 +266,285 @@ impl BranchingTracker {
             coasted: r.bools()?,
             llr: r.f64s()?,
         };
-        t.stats = r
-            .i64s()?
-            .chunks_exact(5)
+        let per_frame = if v1 { 5 } else { 6 };
+        let stats = r.i64s()?;
+        check(stats.iter().all(|&v| v >= 0), "frame statistics")?;
+        check(stats.len() % per_frame == 0, "frame statistics")?;
+        t.stats = stats
+            .chunks_exact(per_frame)
             .map(|c| FrameStats {
                 measurements: c[0] as usize,
                 live_before: c[1] as usize,
                 children: c[2] as usize,
                 live: c[3] as usize,
                 seeds: c[4] as usize,
+                bookkeeping: c.get(5).map_or(0, |&v| v as usize),
             })
             .collect();
-        if !r.0.is_empty() || !t.is_consistent() {
+        if !r.0.is_empty() {
             return Err(corrupt());
         }
+        t.check_state()?;
         *self = t;
         Ok(())
     }
 
-    /// Sizes and ids agree with each other (guards a loaded state against out-of-range ids).
-    fn is_consistent(&self) -> bool {
-        let (w, n, nodes) = (self.w, self.h.len(), self.nodes.len() as i64);
-        let h = &self.h;
-        let node_ok = |id: &i64| *id >= -1 && *id < nodes;
-        let trees = self.tree_conf.len();
-        let sizes = h.node.len() == n
-            && h.tree.len() == n
-            && h.x.len() == n * w.state
-            && h.p.len() == n * w.cov
-            && h.inc.len() == n * w.memory
-            && h.pos_last.len() == n * w.spatial
-            && h.recent.len() == n * w.depth
-            && [&h.n_inc, &h.hits, &h.miss, &h.node_last, &h.cur, &h.start]
-                .iter()
-                .all(|v| v.len() == n)
-            && [&h.i_tot, &h.t_last, &h.llr_last]
-                .iter()
-                .all(|v| v.len() == n)
-            && h.conf.len() == n
-            && self.nodes.state.len() == self.nodes.len() * w.state
-            && [&self.nodes.frame, &self.nodes.meas]
-                .iter()
-                .all(|v| v.len() == self.nodes.len())
-            && [&self.nodes.index, &self.nodes.llr]
-                .iter()
-                .all(|v| v.len() == self.nodes.len())
-            && self.tree_cand.len() == trees
-            && self.tree_cand_llr.len() == trees
-            && self.tree_alive.len() == trees
-            && self.lo.len() == self.k()
-            && self.hi.len() == self.k()
-            && self.online.position.len() == self.online.frame.len() * self.k();
-        sizes
-            && self.counters_consistent()
-            && self
-                .nodes
+    /// Version 2: the live trees.
+    fn read_trees(&mut self, r: &mut Reader) -> Result<()> {
+        let n_trees = r.i64s()?;
+        check(n_trees.len() == 1, "tree count")?;
+        self.n_trees = n_trees[0];
+        let ids = r.i64s()?;
+        let confirmed = r.bools()?;
+        let candidate = r.i64s()?;
+        let candidate_llr = r.f64s()?;
+        let n = ids.len();
+        check(
+            confirmed.len() == n && candidate.len() == n && candidate_llr.len() == n,
+            "tree records",
+        )?;
+        check(ids.windows(2).all(|w| w[0] < w[1]), "tree ids")?;
+        self.trees = (0..n)
+            .map(|i| {
+                let tree = Tree {
+                    confirmed: confirmed[i],
+                    candidate: candidate[i],
+                    candidate_llr: candidate_llr[i],
+                };
+                (ids[i], tree)
+            })
+            .collect();
+        Ok(())
+    }
+
+    /// Version 1: every tree ever made; the live ones are kept.
+    fn read_trees_v1(&mut self, r: &mut Reader) -> Result<()> {
+        let confirmed = r.bools()?;
+        let candidate = r.i64s()?;
+        let candidate_llr = r.f64s()?;
+        let alive = r.bools()?;
+        let n = confirmed.len();
+        check(
+            candidate.len() == n && candidate_llr.len() == n && alive.len() == n,
+            "tree records",
+        )?;
+        self.n_trees = n as i64;
+        self.trees = (0..n)
+            .filter(|&i| alive[i])
+            .map(|i| {
+                let tree = Tree {
+                    confirmed: confirmed[i],
+                    candidate: candidate[i],
+                    candidate_llr: candidate_llr[i],
+                };
+                (i as i64, tree)
+            })
+            .collect();
+        Ok(())
+    }
+
+    /// Every check of a loaded state; the first that fails names what is wrong.
+    fn check_state(&self) -> Result<()> {
+        self.check_sizes()?;
+        self.check_clock()?;
+        self.check_nodes()?;
+        self.check_sequences()?;
+        self.check_trees()?;
+        self.check_answers()
+    }
+
+    /// Every array has the length its count implies.
+    fn check_sizes(&self) -> Result<()> {
+        let (w, n, h, nodes) = (self.w, self.h.len(), &self.h, &self.nodes);
+        let m = nodes.len();
+        check(
+            h.node.len() == n
+                && h.tree.len() == n
+                && h.x.len() == n * w.state
+                && h.p.len() == n * w.cov
+                && h.inc.len() == n * w.memory
+                && h.pos_last.len() == n * w.spatial
+                && h.recent.len() == n * w.depth
+                && [&h.n_inc, &h.hits, &h.miss, &h.node_last, &h.cur, &h.start]
+                    .iter()
+                    .all(|v| v.len() == n)
+                && [&h.i_tot, &h.t_last, &h.llr_last]
+                    .iter()
+                    .all(|v| v.len() == n)
+                && h.conf.len() == n,
+            "sizes of the live sequences",
+        )?;
+        check(
+            nodes.state.len() == m * w.state
+                && [&nodes.frame, &nodes.meas].iter().all(|v| v.len() == m)
+                && [&nodes.index, &nodes.llr].iter().all(|v| v.len() == m),
+            "sizes of the nodes",
+        )?;
+        let o = &self.online;
+        let rows = o.frame.len();
+        check(
+            o.tree.len() == rows
+                && o.coasted.len() == rows
+                && o.llr.len() == rows
+                && o.position.len() == rows * self.k(),
+            "sizes of the online answer",
+        )?;
+        check(
+            self.lo.len() == self.k() && self.hi.len() == self.k(),
+            "sizes of the bounding box",
+        )
+    }
+
+    /// Frame and measurement counters, time and bounding box.
+    fn check_clock(&self) -> Result<()> {
+        let (frame, n_meas, offsets) = (self.frame, self.n_meas, &self.frame_offsets);
+        // (2^53: far beyond any run, and the counters' sums stay exact and never overflow)
+        let counter_ok = |v: i64| (0..=1i64 << 53).contains(&v);
+        check(
+            counter_ok(frame) && counter_ok(n_meas),
+            "frame or measurement count",
+        )?;
+        // every tree starts from a measurement
+        check((0..=n_meas).contains(&self.n_trees), "tree count")?;
+        check(
+            offsets.len() as i64 == frame
+                && self.stats.len() as i64 == frame
+                && offsets.first().is_none_or(|&o| o == 0)
+                && offsets
+                    .windows(2)
+                    .zip(&self.stats)
+                    .all(|(w, s)| w[1] == w[0] + s.measurements as i64)
+                && n_meas
+                    == offsets
+                        .last()
+                        .zip(self.stats.last())
+                        .map_or(0, |(&o, s)| o + s.measurements as i64),
+            "frame offsets",
+        )?;
+        check(
+            self.t.is_some() == (frame > 0) && self.t.is_none_or(|t| t.abs() <= MAX_TIME),
+            "time",
+        )?;
+        let empty = self.lo.iter().all(|&v| v == f64::INFINITY)
+            && self.hi.iter().all(|&v| v == f64::NEG_INFINITY);
+        let spans = all_finite(self.lo.iter().chain(&self.hi))
+            && self.lo.iter().zip(&self.hi).all(|(lo, hi)| lo <= hi);
+        check(if n_meas == 0 { empty } else { spans }, "bounding box")
+    }
+
+    /// The node arena: parents before children, ids and frames in range, finite values.
+    fn check_nodes(&self) -> Result<()> {
+        let (nodes, frame, n_meas) = (&self.nodes, self.frame, self.n_meas);
+        check(
+            nodes
                 .parent
                 .iter()
                 .enumerate()
-                .all(|(i, p)| *p < i as i64 && node_ok(p))
-            && h.node.iter().chain(&h.node_last).all(node_ok)
-            && self.tree_cand.iter().all(node_ok)
-            && self.finished.iter().all(|f| node_ok(&f.0))
-            && h.tree.iter().all(|&t| t >= 0 && (t as usize) < trees)
+                .all(|(i, &p)| p >= -1 && p < i as i64),
+            "node parents",
+        )?;
+        check(
+            nodes.frame.iter().all(|&f| f >= 0 && f < frame.max(1)),
+            "node frames",
+        )?;
+        check(
+            nodes.meas.iter().all(|&g| g >= MISS && g < n_meas),
+            "node measurements",
+        )?;
+        check(
+            all_finite(nodes.state.iter().chain(&nodes.llr))
+                && nodes.index.iter().all(|&v| v.is_finite() && v >= 0.0),
+            "node values",
+        )
     }
 
-    /// Frame and measurement counters, ids and per-sequence counts lie in their ranges.
-    fn counters_consistent(&self) -> bool {
-        let (h, frame, n_meas) = (&self.h, self.frame, self.n_meas);
-        let meas_ok = |g: &i64| *g >= NONE && *g < n_meas;
-        let frame_ok = |f: &i64| *f >= 0 && *f <= frame;
-        let offsets = &self.frame_offsets;
-        frame >= 0
-            && n_meas >= 0
-            && offsets.len() as i64 == frame
-            && self.stats.len() as i64 == frame
-            && offsets.first().is_none_or(|&o| o == 0)
-            && offsets
-                .windows(2)
-                .zip(&self.stats)
-                .all(|(w, s)| w[1] == w[0] + s.measurements as i64)
-            && n_meas
-                == offsets
-                    .last()
-                    .zip(self.stats.last())
-                    .map_or(0, |(&o, s)| o + s.measurements as i64)
-            && self.t.is_some() == (frame > 0)
-            && self.t.is_none_or(f64::is_finite)
-            && self.compact_at > 0
-            && h.recent.iter().chain(&h.cur).all(meas_ok)
-            && self.nodes.meas.iter().all(meas_ok)
-            && self.nodes.frame.iter().all(frame_ok)
-            && h.start.iter().all(frame_ok)
-            && self.online.frame.iter().all(frame_ok)
-            && h.n_inc.iter().all(|&v| v >= 0)
-            && h.hits.iter().all(|&v| v >= 0)
-            && h.miss
+    /// The live sequences: ids, counters and values.
+    fn check_sequences(&self) -> Result<()> {
+        let (h, w, frame, n_meas) = (&self.h, self.w, self.frame, self.n_meas);
+        let n_nodes = self.nodes.len() as i64;
+        check(
+            h.node
                 .iter()
-                .all(|&v| v >= 0 && v <= self.cfg.max_misses as i64)
-            && h.x.iter().chain(&h.p).chain(&h.inc).all(|v| v.is_finite())
-            && h.llr
+                .chain(&h.node_last)
+                .all(|&id| id >= 0 && id < n_nodes),
+            "sequence nodes",
+        )?;
+        check(
+            h.recent
                 .iter()
-                .chain(&h.t_last)
-                .chain(&h.pos_last)
-                .all(|v| v.is_finite())
-            && h.t_last.iter().all(|&v| self.t.is_some_and(|t| v <= t))
+                .all(|&g| g == NONE || (g >= 0 && g < n_meas))
+                && h.cur.iter().all(|&g| g >= MISS && g < n_meas),
+            "sequence measurements",
+        )?;
+        let counts_ok = (0..h.len()).all(|i| {
+            (0..frame).contains(&h.start[i])
+                && (1..=frame).contains(&h.hits[i])
+                && (0..=h.hits[i]).contains(&h.n_inc[i])
+                && (0..=self.cfg.max_misses as i64).contains(&h.miss[i])
+        });
+        check(counts_ok, "sequence counters")?;
+        check(
+            all_finite(
+                h.x.iter()
+                    .chain(&h.llr)
+                    .chain(&h.llr_last)
+                    .chain(&h.pos_last),
+            ) && h
+                .inc
+                .iter()
+                .chain(&h.i_tot)
+                .all(|&v| v.is_finite() && v >= 0.0)
+                && h.t_last
+                    .iter()
+                    .all(|&v| v.is_finite() && self.t.is_some_and(|t| v <= t)),
+            "sequence values",
+        )?;
+        let variances_ok = h.p.chunks_exact(w.cov.max(1)).all(|p| {
+            (0..self.k()).all(|q| {
+                let (d, co) = (self.dims[q], self.cov_off[q]);
+                let block = &p[co..co + d * d];
+                // variances ≥ 0 up to the rounding of the Kalman update
+                let floor = -1e-9 * block.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                all_finite(block) && (0..d).all(|a| block[a * d + a] >= floor)
+            })
+        });
+        check(variances_ok, "sequence covariances")
+    }
+
+    /// The live trees are exactly the trees of the live sequences.
+    fn check_trees(&self) -> Result<()> {
+        let n_nodes = self.nodes.len() as i64;
+        check(
+            self.trees.keys().all(|&id| id >= 0 && id < self.n_trees),
+            "tree ids",
+        )?;
+        let mut live = self.h.tree.clone();
+        live.sort_unstable();
+        live.dedup();
+        check(live.iter().eq(self.trees.keys()), "live trees")?;
+        check(
+            self.trees
+                .values()
+                .all(|t| t.candidate >= -1 && t.candidate < n_nodes && t.candidate_llr.is_finite()),
+            "tree candidates",
+        )
+    }
+
+    /// The finished tracks and the online answer.
+    fn check_answers(&self) -> Result<()> {
+        let n_nodes = self.nodes.len() as i64;
+        check(
+            self.finished
+                .iter()
+                .all(|&(leaf, llr)| leaf >= 0 && leaf < n_nodes && llr.is_finite()),
+            "finished tracks",
+        )?;
+        let o = &self.online;
+        check(
+            o.frame.iter().all(|&f| f >= 0 && f < self.frame)
+                && o.tree.iter().all(|&tr| tr >= 0 && tr < self.n_trees)
+                && all_finite(o.position.iter().chain(&o.llr)),
+            "online answer",
+        )
     }
 }

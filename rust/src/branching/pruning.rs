@@ -6,13 +6,14 @@
 use super::hypotheses::{Hypotheses, Widths};
 use super::tracker::{splitmix64, BranchingTracker};
 use std::cmp::Ordering;
+use std::collections::HashMap;
 
 /// Applies rules 1–5 to the children of one frame.
 pub fn prune(tr: &mut BranchingTracker, c: Hypotheses) -> Hypotheses {
     let w = tr.w;
     let idx = time_out(tr, &c);
     let idx = merge_within_trees(&c, w, idx);
-    let idx = cap_per_tree(&c, w, tr.cfg.max_per_tree, idx);
+    let idx = cap_per_tree(tr, &c, idx);
     let idx = cross_tree_duplicates(tr, &c, idx);
     let idx = global_cap(tr, &c, idx);
     let mut c = c;
@@ -77,21 +78,23 @@ fn descending(llr: f64) -> i64 {
 }
 
 /// Rule 3: at most K per tree, plus each tree's best and best exclusive sequence.
-fn cap_per_tree(c: &Hypotheses, w: Widths, max_per_tree: usize, idx: Vec<usize>) -> Vec<usize> {
+fn cap_per_tree(tr: &mut BranchingTracker, c: &Hypotheses, idx: Vec<usize>) -> Vec<usize> {
+    let (w, max_per_tree) = (tr.w, tr.cfg.max_per_tree);
     if idx.is_empty() {
         return idx;
     }
-    let trees = DenseMap::new(idx.iter().map(|&i| c.tree[i]), 0);
-    let mut count = vec![0usize; trees.values.len()];
+    let trees = TreeSlots::new(c, &idx);
+    tr.bookkeeping += trees.len();
+    let mut count = vec![0usize; trees.len()];
     for &i in &idx {
-        count[(c.tree[i] - trees.lo) as usize] += 1;
+        count[trees.slot(i)] += 1;
     }
-    let crowded = |i: usize| count[(c.tree[i] - trees.lo) as usize] > max_per_tree;
+    let crowded = |i: usize| count[trees.slot(i)] > max_per_tree;
     if !idx.iter().any(|&i| crowded(i)) {
         return idx;
     }
     // Only trees with more than K sequences need the ranking (the others keep all).
-    let protect = protected(c, w, &idx, &trees, &crowded);
+    let protect = protected(c, w, &idx, &trees, &crowded, &mut tr.bookkeeping);
     let mut order: Vec<(i64, bool, i64, usize)> = idx
         .iter()
         .filter(|&&i| crowded(i))
@@ -106,35 +109,42 @@ fn cap_per_tree(c: &Hypotheses, w: Widths, max_per_tree: usize, idx: Vec<usize>)
     keep
 }
 
-/// A dense map over a small range of non-negative ids.
-struct DenseMap {
-    lo: i64,
-    values: Vec<i64>,
+/// The distinct trees of some child rows, numbered 0.. in increasing tree id: per-tree
+/// tables sized by the trees present, not by the range of ids (old trees live beside new
+/// ones, whose ids grow with every frame).
+struct TreeSlots {
+    /// Slot of each row's tree (rows outside the set: unused).
+    slot: Vec<usize>,
+    count: usize,
 }
 
-impl DenseMap {
-    fn new(ids: impl Iterator<Item = i64> + Clone, empty: i64) -> Self {
-        let lo = ids.clone().min().unwrap_or(0);
-        let hi = ids.max().unwrap_or(-1);
-        DenseMap {
-            lo,
-            values: vec![empty; (hi - lo + 1).max(0) as usize],
+impl TreeSlots {
+    fn new(c: &Hypotheses, rows: &[usize]) -> Self {
+        let mut ids: Vec<i64> = rows.iter().map(|&i| c.tree[i]).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        let mut slot = vec![0; c.len()];
+        for &i in rows {
+            slot[i] = ids.binary_search(&c.tree[i]).expect("a tree of the rows");
+        }
+        TreeSlots {
+            slot,
+            count: ids.len(),
         }
     }
-    fn slot(&mut self, id: i64) -> &mut i64 {
-        &mut self.values[(id - self.lo) as usize]
+    fn len(&self) -> usize {
+        self.count
     }
-    fn get(&self, id: i64) -> Option<i64> {
-        let k = id - self.lo;
-        (k >= 0 && (k as usize) < self.values.len()).then(|| self.values[k as usize])
+    fn slot(&self, row: usize) -> usize {
+        self.slot[row]
     }
 }
 
-/// Per tree (dense over the trees of `rows`): the best row, −1 for none (ties: earliest row).
-fn best_per_tree(c: &Hypotheses, trees: &DenseMap, rows: impl Iterator<Item = usize>) -> Vec<i64> {
-    let mut best = vec![-1i64; trees.values.len()];
+/// Per tree slot: the best row, −1 for none (ties: earliest row).
+fn best_per_tree(c: &Hypotheses, trees: &TreeSlots, rows: impl Iterator<Item = usize>) -> Vec<i64> {
+    let mut best = vec![-1i64; trees.len()];
     for i in rows {
-        let b = &mut best[(c.tree[i] - trees.lo) as usize];
+        let b = &mut best[trees.slot(i)];
         if *b < 0 || c.llr[i] > c.llr[*b as usize] {
             *b = i as i64;
         }
@@ -142,7 +152,7 @@ fn best_per_tree(c: &Hypotheses, trees: &DenseMap, rows: impl Iterator<Item = us
     best
 }
 
-const FREE: i64 = -3;
+/// Owner of a measurement claimed by the best sequence of two trees or more.
 const CONTESTED: i64 = -1;
 
 /// Rows (indexed by row of `c`) kept whatever their rank: per tree its best one and its best
@@ -152,8 +162,9 @@ fn protected(
     c: &Hypotheses,
     w: Widths,
     idx: &[usize],
-    trees: &DenseMap,
+    trees: &TreeSlots,
     crowded: &impl Fn(usize) -> bool,
+    bookkeeping: &mut usize,
 ) -> Vec<bool> {
     let best = best_per_tree(c, trees, idx.iter().copied());
     let bests: Vec<usize> = best
@@ -161,22 +172,22 @@ fn protected(
         .filter(|&&b| b >= 0)
         .map(|&b| b as usize)
         .collect();
-    let claimed = bests
-        .iter()
-        .flat_map(|&i| c.recent_row(i, w).iter().copied().filter(|&g| g >= 0));
-    let mut owner = DenseMap::new(claimed, FREE);
+    // measurement id → the tree whose best sequence holds it (CONTESTED: several)
+    let mut owner: HashMap<i64, i64> = HashMap::new();
     for &i in &bests {
         for &g in c.recent_row(i, w).iter().filter(|&&g| g >= 0) {
-            let slot = owner.slot(g);
-            *slot = if *slot == FREE { c.tree[i] } else { CONTESTED };
+            owner
+                .entry(g)
+                .and_modify(|t| *t = CONTESTED)
+                .or_insert(c.tree[i]);
         }
     }
+    *bookkeeping += owner.len();
     let exclusive = idx.iter().copied().filter(|&i| {
         crowded(i)
-            && c.recent_row(i, w).iter().all(|&g| match owner.get(g) {
-                None | Some(FREE) => true,
-                Some(t) => t == c.tree[i],
-            })
+            && c.recent_row(i, w)
+                .iter()
+                .all(|g| owner.get(g).is_none_or(|&t| t == c.tree[i]))
     });
     let best_exclusive = best_per_tree(c, trees, exclusive);
     let mut is_protected = vec![false; c.len()];

@@ -59,12 +59,18 @@ impl BranchingTracker {
                 out.push((self.h.node[i], self.h.llr[i]));
             }
         }
-        for tr in 0..self.tree_cand.len() {
-            if self.tree_alive[tr] && self.tree_conf[tr] && self.tree_cand[tr] >= 0 {
-                out.push((self.tree_cand[tr], self.tree_cand_llr[tr]));
+        for tree in self.trees.values() {
+            if tree.confirmed && tree.candidate >= 0 {
+                out.push((tree.candidate, tree.candidate_llr));
             }
         }
         out
+    }
+
+    /// True when the final answer may take the sequence ending at `leaf` (enough measured
+    /// frames and score).
+    pub(crate) fn selectable(&self, leaf: i64, llr: f64) -> bool {
+        llr >= self.cfg.final_llr && self.hits(&self.nodes.chain(leaf)) >= self.cfg.min_hits
     }
 
     fn hits(&self, chain: &[i64]) -> usize {

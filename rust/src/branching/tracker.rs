@@ -9,6 +9,7 @@ use super::nodes::{remapped, Nodes};
 use super::pruning::prune;
 use crate::error::{FieldError, Result};
 use statrs::function::gamma::gamma;
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 /// Per-frame counters (for benchmarks and the clutter-robustness report).
@@ -19,6 +20,10 @@ pub struct FrameStats {
     pub children: usize,
     pub live: usize,
     pub seeds: usize,
+    /// Records the frame's bookkeeping visited (track trees scanned, slots of the per-tree
+    /// and per-measurement maps of pruning, nodes scanned by a compaction): a deterministic
+    /// measure of the work besides branching, which must not grow with the frames before.
+    pub bookkeeping: usize,
 }
 
 /// The per-frame online answer (greedy over the live confirmed sequences).
@@ -51,15 +56,35 @@ pub struct BranchingTracker {
     pub frame_offsets: Vec<i64>,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
-    pub(crate) tree_conf: Vec<bool>,
-    pub(crate) tree_cand: Vec<i64>,
-    pub(crate) tree_cand_llr: Vec<f64>,
-    pub(crate) tree_alive: Vec<bool>,
+    /// The live track trees (those holding a live sequence), by id.
+    pub(crate) trees: BTreeMap<i64, Tree>,
+    /// Track-tree ids handed out so far (the next tree's id).
+    pub(crate) n_trees: i64,
     /// (leaf node, score) of ended track trees' best confirmed sequences.
     pub finished: Vec<(i64, f64)>,
     pub online: OnlineAnswer,
     pub(crate) compact_at: usize,
     pub stats: Vec<FrameStats>,
+    /// The current frame's `FrameStats::bookkeeping` count.
+    pub(crate) bookkeeping: usize,
+}
+
+/// One live track tree: whether it has held a confirmed sequence, and its candidate for
+/// the final answer (the best ended or capped confirmed sequence so far).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Tree {
+    pub(crate) confirmed: bool,
+    /// Leaf node of the candidate, −1 for none.
+    pub(crate) candidate: i64,
+    pub(crate) candidate_llr: f64,
+}
+
+impl Tree {
+    pub(crate) const NEW: Tree = Tree {
+        confirmed: false,
+        candidate: -1,
+        candidate_llr: 0.0,
+    };
 }
 
 /// Predicted moments of every live sequence, per parameter, for one frame.
@@ -125,14 +150,13 @@ impl BranchingTracker {
             frame_offsets: Vec::new(),
             lo: vec![f64::INFINITY; k],
             hi: vec![f64::NEG_INFINITY; k],
-            tree_conf: Vec::new(),
-            tree_cand: Vec::new(),
-            tree_cand_llr: Vec::new(),
-            tree_alive: Vec::new(),
+            trees: BTreeMap::new(),
+            n_trees: 0,
             finished: Vec::new(),
             online: OnlineAnswer::default(),
             compact_at: 200_000,
             stats: Vec::new(),
+            bookkeeping: 0,
             dims,
             state_off,
             cov_off,
@@ -207,6 +231,7 @@ impl BranchingTracker {
             live_before: self.h.len(),
             ..Default::default()
         };
+        self.bookkeeping = 0;
         let h = std::mem::take(&mut self.h);
         let mut h = if h.is_empty() {
             h
@@ -224,13 +249,14 @@ impl BranchingTracker {
         self.h = h;
         self.online_answer();
         stats.live = self.h.len();
-        self.stats.push(stats);
         self.n_meas += m as i64;
         self.t = Some(t);
         self.frame += 1;
         if self.nodes.len() > self.compact_at {
             self.compact();
         }
+        stats.bookkeeping = self.bookkeeping;
+        self.stats.push(stats);
         Ok(())
     }
 
@@ -510,11 +536,18 @@ impl BranchingTracker {
 
     /// Makes (node, score) the tree's candidate if it beats the current one.
     pub(crate) fn offer_candidate(&mut self, tree: i64, node: i64, llr: f64) {
-        let tr = tree as usize;
-        if self.tree_cand[tr] < 0 || llr > self.tree_cand_llr[tr] {
-            self.tree_cand[tr] = node;
-            self.tree_cand_llr[tr] = llr;
+        let tree = self.live_tree(tree);
+        if tree.candidate < 0 || llr > tree.candidate_llr {
+            tree.candidate = node;
+            tree.candidate_llr = llr;
         }
+    }
+
+    /// The record of a live tree (every sequence's tree is live until `close_dead_trees`).
+    fn live_tree(&mut self, tree: i64) -> &mut Tree {
+        self.trees
+            .get_mut(&tree)
+            .expect("a live sequence's track tree is live")
     }
 
     /// Stores the surviving children as nodes.
@@ -535,25 +568,32 @@ impl BranchingTracker {
             }
             c.node[i] = id;
             if c.conf[i] {
-                self.tree_conf[c.tree[i] as usize] = true;
+                self.live_tree(c.tree[i]).confirmed = true;
             }
         }
         c
     }
 
-    /// Trees that lost every sequence: their best ended confirmed sequence is final.
+    /// Trees that lost every sequence: their best ended confirmed sequence is final (kept
+    /// only if the final answer can take it), and their record goes.
     fn close_dead_trees(&mut self, h: &Hypotheses) {
-        let mut alive = vec![false; self.tree_alive.len()];
-        for &tr in &h.tree {
-            alive[tr as usize] = true;
-        }
-        for (tr, &now) in alive.iter().enumerate() {
-            if self.tree_alive[tr] && !now && self.tree_conf[tr] && self.tree_cand[tr] >= 0 {
-                self.finished
-                    .push((self.tree_cand[tr], self.tree_cand_llr[tr]));
+        let mut live = h.tree.clone();
+        live.sort_unstable();
+        live.dedup();
+        self.bookkeeping += self.trees.len();
+        let mut ended = Vec::new();
+        self.trees.retain(|id, tree| {
+            let alive = live.binary_search(id).is_ok();
+            if !alive && tree.confirmed && tree.candidate >= 0 {
+                ended.push((tree.candidate, tree.candidate_llr));
+            }
+            alive
+        });
+        for (leaf, llr) in ended {
+            if self.selectable(leaf, llr) {
+                self.finished.push((leaf, llr));
             }
         }
-        self.tree_alive = alive;
     }
 
     /// Measurements of this frame no confirmed sequence uses (at most `max_seeds`: those with
@@ -580,11 +620,9 @@ impl BranchingTracker {
         let (k, w) = (self.k(), self.w);
         for &j in new {
             let zj = &input.z[j * k..(j + 1) * k];
-            let tree = self.tree_conf.len() as i64;
-            self.tree_conf.push(false);
-            self.tree_cand.push(-1);
-            self.tree_cand_llr.push(0.0);
-            self.tree_alive.push(true);
+            let tree = self.n_trees;
+            self.n_trees += 1;
+            self.trees.insert(tree, Tree::NEW);
             let mut x = vec![0.0; w.state];
             for q in 0..k {
                 x[self.state_off[q]] = zj[q];
@@ -651,10 +689,7 @@ impl BranchingTracker {
 
     /// Drops the nodes no live sequence, candidate or final answer can reach.
     pub fn compact(&mut self) {
-        let alive_cands: Vec<i64> = (0..self.tree_cand.len())
-            .filter(|&tr| self.tree_alive[tr] && self.tree_cand[tr] >= 0)
-            .map(|tr| self.tree_cand[tr])
-            .collect();
+        let candidates = self.trees.values().filter(|t| t.candidate >= 0);
         let roots = self
             .h
             .node
@@ -662,8 +697,9 @@ impl BranchingTracker {
             .chain(&self.h.node_last)
             .copied()
             .chain(self.finished.iter().map(|f| f.0))
-            .chain(alive_cands)
+            .chain(candidates.map(|t| t.candidate))
             .collect::<Vec<i64>>();
+        self.bookkeeping += self.nodes.len();
         let remap = self.nodes.compact(roots);
         for id in self.h.node.iter_mut().chain(self.h.node_last.iter_mut()) {
             *id = remapped(&remap, *id);
@@ -671,12 +707,8 @@ impl BranchingTracker {
         for f in &mut self.finished {
             f.0 = remapped(&remap, f.0);
         }
-        for tr in 0..self.tree_cand.len() {
-            self.tree_cand[tr] = if self.tree_alive[tr] {
-                remapped(&remap, self.tree_cand[tr])
-            } else {
-                -1
-            };
+        for tree in self.trees.values_mut() {
+            tree.candidate = remapped(&remap, tree.candidate);
         }
         self.compact_at = 200_000.max(4 * self.nodes.len());
     }

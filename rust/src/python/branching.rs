@@ -136,17 +136,27 @@ impl PyBranchingTracker {
         Ok(out)
     }
 
-    /// Per frame: measurements, live sequences before, children, live after, new sequences.
+    /// Per frame: measurements, live sequences before, children, live after, new sequences,
+    /// bookkeeping records visited.
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let flat: Vec<i64> = self
             .inner
             .stats
             .iter()
-            .flat_map(|s| [s.measurements, s.live_before, s.children, s.live, s.seeds])
+            .flat_map(|s| {
+                [
+                    s.measurements,
+                    s.live_before,
+                    s.children,
+                    s.live,
+                    s.seeds,
+                    s.bookkeeping,
+                ]
+            })
             .map(|v| v as i64)
             .collect();
-        let rows = flat.len() / 5;
-        PyArray1::from_vec(py, flat).reshape([rows, 5])
+        let rows = flat.len() / 6;
+        PyArray1::from_vec(py, flat).reshape([rows, 6])
     }
 
     /// Global id of the first measurement of every frame.
