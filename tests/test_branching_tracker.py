@@ -635,7 +635,7 @@ def encode_state(sections: list[np.ndarray]) -> bytes:
 def corruptions():
     """(section, position, value) to write into a mid-stream state."""
     values = {"i": [2**63 - 1, -(2**63), -3, 2**40], "f": [np.nan, np.inf, -np.inf, 1e308]}
-    for s, (name, kind) in enumerate(STATE_SECTIONS):
+    for s, (_, kind) in enumerate(STATE_SECTIONS):
         for value in values.get(kind, []):
             for position in (0, -1):
                 yield s, position, value
@@ -716,9 +716,7 @@ def test_version_1_state_resumes_like_an_unbroken_run():
     pd.testing.assert_frame_equal(
         resumed.tracks(online=True), unbroken.tracks(online=True), check_exact=True
     )
-    pd.testing.assert_frame_equal(
-        resumed.stats()[STATS], unbroken.stats()[STATS], check_exact=True
-    )
+    pd.testing.assert_frame_equal(resumed.stats()[STATS], unbroken.stats()[STATS], check_exact=True)
 
 
 def bouncing_target_in_clutter(n_frames, n_clutter=200, side=500.0, seed=0):
