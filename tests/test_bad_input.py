@@ -422,3 +422,25 @@ def test_row_filter_inputs_of_every_kind():
         with pytest.raises(TypeError, match="must hold real numbers"):
             srf.filter(bad)
     assert srf.filter(np.zeros((0, 4, 5)), noise_var=np.ones((0, 4, 5))).shape == (0, 4, 5)
+
+
+def test_numeric_strings_and_bools_in_object_arrays_are_refused():
+    """(float() had parsed "1.5" and taken True as 1 in object arrays: identify, link's
+    columns, the filters and the tracker accepted them)"""
+    z = np.random.default_rng(0).standard_normal((8, 8)).astype(object)
+    for bad in ("1.5", True, None, 1j):
+        z[3, 4] = bad
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.ScalarRowFilter(MODEL, 0.5, 8).filter(z)
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.identify(z)
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.BranchingTracker(2).update(np.array([[1.0, bad]], dtype=object))
+    for bad in (np.array(["1", "2"]), ["1", "2"]):
+        with pytest.raises(TypeError, match="lags must hold real numbers"):
+            kf.ARFieldModel(0.5, 1).correlation(bad)
+    with pytest.raises(TypeError, match="must hold real numbers"):
+        kf.sample_correlation(np.array([["1", "2"], ["3", "4"]]), 1)
+    z[3, 4] = 10**400
+    with pytest.raises(ValueError, match="beyond float64"):
+        kf.identify(z)
