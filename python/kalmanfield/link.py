@@ -59,6 +59,9 @@ def link(
     """
     if not isinstance(detections, pd.DataFrame):
         raise TypeError(f"detections must be a pandas DataFrame, got {type(detections).__name__}")
+    for name, names in (("pos_columns", pos_columns), ("features", features)):
+        if isinstance(names, (str, bytes)):  # ("xy" had been read as the columns x and y)
+            raise TypeError(f"{name} must be a sequence of column names, got {names!r}")
     cols = [*pos_columns, *features]
     if not list(pos_columns):
         raise ValueError("pos_columns must name at least one position column")
