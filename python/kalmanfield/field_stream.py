@@ -22,7 +22,7 @@ from ._validation import (
     thread_count,
 )
 from .ar_field_model import ARFieldModel
-from .stream_state import checked_state, history_limit
+from .stream_state import check_recursions, checked_state, history_limit
 
 
 class FieldStream:
@@ -46,7 +46,9 @@ class FieldStream:
 
     A float32 stream runs its recursions in single precision, so it is refused (ValueError:
     use float64) for models whose rounding errors would pass ~1e-3 σ there (1/β̃ > 84 on an
-    axis; :meth:`ARFieldModel.sample` falls back to float64 for those instead).
+    axis; :meth:`ARFieldModel.sample` falls back to float64 for those instead). So is a
+    model whose exactly stationary start is beyond float64 (at construction, not at the
+    first frame).
     """
 
     def __init__(
@@ -66,9 +68,7 @@ class FieldStream:
         self.dtype = float_dtype(dtype, model.sigma)
         # the history and the frame being made
         check_memory(self.frame_shape, self.dtype, copies=model.order[0] + 1)
-        if self.dtype == np.float32:  # the kernel's precision check: frame 0 of one element
-            probe = np.empty((1,) * (model.ndim - 1), dtype=self.dtype)
-            model._core.stream_into(probe, [], 0, 0, None, 1)
+        check_recursions(model, self.dtype)
         self.seed = resolve_seed(seed)
         self.threads = thread_count(threads)
         self.time = 0

@@ -88,6 +88,14 @@ def _boundary_gain(model: ARFieldModel, position: int) -> float:
     return max(1.0, *(float(np.abs(r).sum()) for r in rows))
 
 
+def check_recursions(model: ARFieldModel, dtype: np.dtype) -> None:
+    """ValueError unless the kernel can run the model's recursions in `dtype` (a stationary
+    start beyond float64, a float32 recursion whose rounding would pass ~1e-3 σ): frame 0 of
+    one element, at the stream's construction rather than at its first frame."""
+    probe = np.empty((1,) * (model.ndim - 1), dtype=dtype)
+    model._core.stream_into(probe, [], 0, 0, None, 1)
+
+
 def checked_state(state: Any) -> dict[str, Any]:
     """The fields of a pickled FieldStream state, each checked as the constructor checks it,
     and its history (a list of at most n_t frames, most recent first, exactly min(time, n_t)
@@ -115,6 +123,7 @@ def checked_state(state: Any) -> dict[str, Any]:
         raise TypeError(f"the state's seed must be an int, got {seed!r}")
     if not 0 <= int(seed) < 2**64:
         raise ValueError(f"the state's seed must lie in [0, 2**64), got {seed}")
+    check_recursions(model, dtype)
     time = nonnegative_int(state["time"], "the state's time")
     history = _checked_history(state["history"], model, frame_shape, dtype, time)
     return {
