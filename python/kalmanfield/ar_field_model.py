@@ -143,7 +143,8 @@ class ARFieldModel:
         """σ² Π_k R_k(r_k) (SPEC §1.1–1.2) for lags of shape (..., N), integer or real
         (real lags use ρ^|r|·polynomial(|r|) of [P 2.9]). For a 1-axis model, lags of any
         shape whose last axis is not of length 1 are taken as scalar lags."""
-        arr = real_array(lags, "lags").reshape(np.shape(lags))
+        shape: tuple[int, ...] = np.shape(lags)  # (real_array makes a 0-d input 1-d)
+        arr = real_array(lags, "lags").reshape(shape)
         if self.ndim == 1 and (arr.ndim == 0 or arr.shape[-1] != 1):
             arr = arr[..., np.newaxis]
         if arr.ndim == 0 or arr.shape[-1] != self.ndim:

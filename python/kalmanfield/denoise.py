@@ -4,7 +4,7 @@ noise level estimated from the noisy image itself, optionally locally adapted.""
 from __future__ import annotations
 
 import warnings
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -268,8 +268,8 @@ def denoise(
         raise ValueError("every pixel is NaN (missing): there is nothing to denoise")
     exponent = _moments_scale(z)
     if exponent:
-        settings = dict(method=method, smooth=smooth, adaptive=adaptive, window=window)
-        settings.update(threads=threads, row_models=row_models)
+        settings: dict[str, Any] = dict(method=method, smooth=smooth, adaptive=adaptive)
+        settings.update(window=window, threads=threads, row_models=row_models)
         return _rescaled(z, exponent, nv, model, mean, settings)
     if nv is None:
         nv = estimate_noise_var(z)
@@ -303,7 +303,7 @@ def _rescaled(
     nv: float | None,
     model: ARFieldModel | None,
     mean: float | None,
-    settings: dict,
+    settings: dict[str, Any],
 ) -> np.ndarray:
     """:func:`denoise` of z · 2^−exponent (with noise_var, mean and a stationary model's σ
     scaled alike), times 2^exponent: the same bits as the unscaled computation wherever that
