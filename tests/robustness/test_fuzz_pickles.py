@@ -449,11 +449,31 @@ def test_corrupt_tracker_pickles_outside_its_state_bytes():
     assert not failures, report(failures)
 
 
+#: the words written over the state's 8-byte items: NaN, inf (floats), 2**63 − 1 and −1
+#: (counts and indexes, little-endian as the state's codec)
+STATE_WORDS = [struct.pack("<d", np.nan), struct.pack("<d", np.inf)] + [
+    struct.pack("<q", v) for v in (2**63 - 1, -1)
+]
+
+
 def suite_tracker_state_bytes() -> list[str]:
+    """Random corruptions inside the state bytes, then special words over its items: a
+    seeded sample of 8-byte positions (all of them in long mode), each of STATE_WORDS."""
     tracker = _tracker()
     blob = pickle.dumps(tracker)
     lo, hi = _state_range(blob, tracker._core.state_bytes())
-    return run_cases(blob, step_tracker, kf.BranchingTracker, 11, lo + 8, hi)
+    failures = run_cases(blob, step_tracker, kf.BranchingTracker, 11, lo + 8, hi)
+    positions = np.arange(lo + 8, hi - 7, 8)
+    if not LONG:
+        positions = np.sort(rng(12).choice(positions, min(300, positions.size), replace=False))
+    for at in positions:
+        for w, word in enumerate(STATE_WORDS):
+            bad = blob[:at] + word + blob[at + 8 :]
+            print(f"CASE word {w} at {at - lo}", flush=True)
+            problem = outcome(bad, step_tracker, kf.BranchingTracker)
+            if problem:
+                failures.append(f"word {word.hex()} at state byte {at - lo}: {problem}")
+    return failures
 
 
 @pytest.mark.xfail(strict=False, reason="issue 49 item 2, lead")
