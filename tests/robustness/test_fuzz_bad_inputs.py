@@ -285,6 +285,14 @@ def _tracker_update(measurements=None, time=None):
 
 
 STACK_POOL = _images((2, H, W), STACK, "stack ")
+#: the arguments both row filters take
+FILTER_POOLS = dict(
+    model=MODELS,
+    noise_var=_positive_scalars(),
+    width=[b for b in _positive_ints() if b.label != "2**62"],
+    mean=_scalars(),
+    threads=THREADS,
+)
 NONE_DEFAULTS = {"None"}  # (None: the documented default of an optional argument)
 
 ENTRIES = [
@@ -342,12 +350,8 @@ ENTRIES = [
         lambda **kw: kf.ScalarRowFilter(**kw).filter(IMAGE),
         dict(model=MODEL2, noise_var=0.5, width=W),
         dict(
-            model=MODELS,
-            noise_var=_positive_scalars(),
-            width=[b for b in _positive_ints() if b.label != "2**62"],
+            **FILTER_POOLS,
             ar_order=_positive_ints(),
-            mean=_scalars(),
-            threads=THREADS,
             modes=_choices("ends"),
             row_models=_choices("auto"),
         ),
@@ -378,13 +382,7 @@ ENTRIES = [
         "VectorRowFilter",
         lambda **kw: kf.VectorRowFilter(**kw).filter(IMAGE),
         dict(model=MODEL2, noise_var=0.5, width=W),
-        dict(
-            model=MODELS,
-            noise_var=_positive_scalars(),
-            width=[b for b in _positive_ints() if b.label != "2**62"],
-            mean=_scalars(),
-            threads=THREADS,
-        ),
+        FILTER_POOLS,
     ),
     Entry(
         "VectorRowFilter.filter",
