@@ -422,3 +422,58 @@ def test_row_filter_inputs_of_every_kind():
         with pytest.raises(TypeError, match="must hold real numbers"):
             srf.filter(bad)
     assert srf.filter(np.zeros((0, 4, 5)), noise_var=np.ones((0, 4, 5))).shape == (0, 4, 5)
+
+
+def test_numeric_strings_and_bools_in_object_arrays_are_refused():
+    """(float() had parsed "1.5" and taken True as 1 in object arrays: identify, link's
+    columns, the filters and the tracker accepted them)"""
+    z = np.random.default_rng(0).standard_normal((8, 8)).astype(object)
+    for bad in ("1.5", True, None, 1j):
+        z[3, 4] = bad
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.ScalarRowFilter(MODEL, 0.5, 8).filter(z)
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.identify(z)
+        with pytest.raises(TypeError, match="must hold real numbers"):
+            kf.BranchingTracker(2).update(np.array([[1.0, bad]], dtype=object))
+    for bad in (np.array(["1", "2"]), ["1", "2"]):
+        with pytest.raises(TypeError, match="lags must hold real numbers"):
+            kf.ARFieldModel(0.5, 1).correlation(bad)
+    with pytest.raises(TypeError, match="must hold real numbers"):
+        kf.sample_correlation(np.array([["1", "2"], ["3", "4"]]), 1)
+    z[3, 4] = 10**400
+    with pytest.raises(ValueError, match="beyond float64"):
+        kf.identify(z)
+
+
+def test_what_the_bad_input_harness_found():
+    """tests/robustness found these (issue 49): a Yule–Walker prediction of an image with an
+    infinite pixel was inf, silently; link read pos_columns="xy" as the columns x and y;
+    BranchingTracker(2**62) was a bare MemoryError; a stream whose model's start is beyond
+    float64 was accepted until its first frame."""
+    import pandas as pd
+
+    image = MODEL.sample((12, 16), seed=1)
+    fit = kf.yule_walker(image, (1, 1))
+    for value in (np.inf, -np.inf):
+        bad = image.copy()
+        bad[4, 5] = value
+        with pytest.raises(ValueError, match="infinite pixels"):
+            fit.predict(bad)
+    with pytest.raises(ValueError, match="overflows float64"):
+        fit.predict(1.5e308 * (-1.0) ** np.add.outer(np.arange(12), np.arange(16)))
+    holes = image.copy()
+    holes[4, 5] = np.nan  # missing: NaN where the template touches it, finite elsewhere
+    predicted = fit.predict(holes)
+    touched = np.zeros(image.shape, bool)
+    touched[[4, 5, 5], [6, 5, 6]] = True  # the pixels whose template holds (4, 5)
+    touched[0, :] = touched[:, 0] = True  # and those whose template leaves the image
+    assert np.isnan(predicted[touched]).all() and np.isfinite(predicted[~touched]).all()
+    det = pd.DataFrame({"frame": [0, 1], "x": [1.0, 2.0], "y": [3.0, 4.0]})
+    for key in ("pos_columns", "features"):
+        with pytest.raises(TypeError, match=f"{key} must be a sequence of column names"):
+            kf.link(det, measurement_std=0.5, process_std=0.1, **{key: "xy"})
+    with pytest.raises(ValueError, match="n_params must be at most 65536"):
+        kf.BranchingTracker(2**62)
+    with pytest.raises(ValueError, match="beyond float64"):
+        kf.FieldStream(kf.ARFieldModel([0.5, 0.99, 0.5], [1, 8, 1]), (8, 8), seed=0)

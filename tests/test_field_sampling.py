@@ -164,3 +164,24 @@ def test_models_are_values():
     assert a.ndim == 2 and kf.ARFieldModel([0.5] * 3, 1).ndim == 3
     assert a == same and hash(a) == hash(same) and a != other
     assert len({a, same, other}) == 2  # usable as set members and dict keys
+
+
+# ------------------------------------------------------------------ issue 49, item 9
+@pytest.mark.parametrize("dtype,big", [(np.float64, 1e308), (np.float32, 1e38)])
+def test_given_noise_whose_field_overflows_is_refused(dtype, big):
+    """(sample(shape, noise=np.full(shape, 1e308)) returned NaN and inf, float32 too)"""
+    model = kf.ARFieldModel([0.9, 0.8], [2, 2])
+    with pytest.raises(ValueError, match="given noise overflows"):
+        model.sample((6, 7), noise=np.full((6, 7), big), dtype=dtype)
+    # noise far above standard normal but whose field fits is the linear image of the unit one
+    noise = np.random.default_rng(1).standard_normal((6, 7))
+    np.testing.assert_allclose(
+        model.sample((6, 7), noise=noise * 2.0**900), model.sample((6, 7), noise=noise) * 2.0**900
+    )
+    with pytest.raises(ValueError, match="given noise overflows"):
+        kf.sample_product_field(
+            model, (6, 7), noise=[np.full(6, 1e200), np.full(7, 1e200)], dtype=dtype
+        )
+    assert np.isfinite(
+        kf.sample_product_field(model, (6, 7), noise=[np.full(6, 1e100), np.full(7, 1e100)])
+    ).all()

@@ -451,3 +451,65 @@ def test_a_stack_frame_with_no_observed_pixel():
         np.testing.assert_allclose(out[f], alone, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="no observed pixel"):
         kf.denoise(z, 0.49, model)
+
+
+# ------------------------------------------------------------------ issue 49, items 8 and 13
+@pytest.mark.parametrize("holes", [False, True])
+def test_local_moments_of_data_of_any_magnitude(holes):
+    """(variance 0 everywhere for data × 1e160, NaN means for × 1e306, silently). Scaled by a
+    power of two the moments are the unit data's, scaled: exact; variances beyond float64
+    are the "rescale" ValueError of estimate_noise_var and identify."""
+    z = np.random.default_rng(5).standard_normal((2, 12, 15))
+    if holes:
+        z[0, 3, 4] = z[1, 7:9, 2:6] = np.nan
+    mean, var = local_moments(z, 5)
+    for k in (-1000, -531, -100, 300, 450, 505):  # 1e-301, 1e-160, …, 1e152
+        m, v = local_moments(np.ldexp(z, k), 5)
+        np.testing.assert_array_equal(m, np.ldexp(mean, k))
+        np.testing.assert_array_equal(v, np.ldexp(var, 2 * k))  # (subnormal: rounded once)
+    for factor in (1e160, 1e306):
+        with pytest.raises(ValueError, match="overflow float64.*rescale"):
+            local_moments(z * factor, 5)
+    # a huge offset with deviations whose squares fit: against the twin in scaled units
+    offset = 2.0**531 + np.ldexp(z[0], 480)
+    m, v = local_moments(offset, 3)
+    want_m, want_v = ref_local_moments(np.ldexp(offset, -531), 1)
+    np.testing.assert_allclose(m, np.ldexp(want_m, 531), rtol=1e-15)
+    np.testing.assert_allclose(v, np.ldexp(want_v, 1062), rtol=1e-9)
+    assert np.isfinite(v[~np.isnan(v)]).all()
+
+
+@pytest.mark.parametrize("adaptive", [True, False])
+def test_denoise_of_data_of_any_magnitude(adaptive):
+    """Scale-equivariant to the bit (a power of two): the adaptive mode lost 1e-4 of its
+    precision at 1e-160 and refused 1e153 (its box moments overflowed), the stationary one
+    refused both (σ beyond its range)."""
+    model = kf.ARFieldModel([0.95, 0.95], [1, 1])
+    z = model.sample((24, 30), seed=1) + 0.3 * np.random.default_rng(2).standard_normal((24, 30))
+    unit = kf.denoise(z, adaptive=adaptive)
+    for k in (-1000, -530, 510, 1000):
+        np.testing.assert_array_equal(
+            kf.denoise(np.ldexp(z, k), adaptive=adaptive), np.ldexp(unit, k)
+        )
+    given = kf.denoise(z, 0.09, model, mean=0.5, adaptive=adaptive)
+    scaled = kf.denoise(
+        np.ldexp(z, 450),
+        0.09 * 2.0**900,
+        model if adaptive else kf.ARFieldModel(model.rho, model.order, 2.0**450),
+        mean=2.0**450 * 0.5,
+        adaptive=adaptive,
+    )
+    np.testing.assert_array_equal(scaled, np.ldexp(given, 450))
+    with pytest.raises(ValueError, match="overflow float64"):  # noise_var 2^-1200 of z²
+        kf.denoise(np.ldexp(z, 600), 1.0, adaptive=adaptive)
+
+
+@pytest.mark.parametrize("adaptive", [True, False])
+@pytest.mark.parametrize(
+    "mean,exc", [(np.nan, ValueError), (np.inf, ValueError), ("0", TypeError), (1j, TypeError)]
+)
+def test_denoise_checks_mean_in_both_modes(adaptive, mean, exc):
+    """(the adaptive mode ignored an invalid mean silently; the stationary one parsed "0")"""
+    z = np.random.default_rng(3).standard_normal((10, 12))
+    with pytest.raises(exc, match="mean must"):
+        kf.denoise(z, 0.5, mean=mean, adaptive=adaptive)

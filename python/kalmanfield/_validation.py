@@ -102,6 +102,18 @@ def probability(value: Any, name: str) -> float:
     return p
 
 
+def check_real_dtype(raw: np.ndarray, name: str) -> None:
+    """TypeError unless `raw` holds real numbers: an integer or float dtype, or objects that
+    are all real numbers (not bools, strings, None, complex…: float() would parse "1.5" and
+    take True as 1)."""
+    if raw.dtype.kind not in "iufO":
+        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    if raw.dtype.kind == "O":
+        for item in raw.flat:
+            if isinstance(item, (bool, np.bool_)) or not isinstance(item, numbers.Real):
+                raise TypeError(f"{name} must hold real numbers, got {item!r}")
+
+
 def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
     """`value` as a C-contiguous float64 array (at least 1-D); None, bool, complex, strings,
     datetimes, structured and other non-numeric input refused. The masked entries of a
@@ -110,8 +122,7 @@ def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
         raise TypeError(f"{name} must be an array, got None")
     masked = np.ma.getmaskarray(value) if isinstance(value, np.ma.MaskedArray) else None
     raw = np.asarray(np.ma.getdata(value) if masked is not None else value)
-    if raw.dtype.kind not in "iufO":
-        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    check_real_dtype(raw, name)
     try:
         out = np.ascontiguousarray(raw, dtype=np.float64)
     except OverflowError:
@@ -202,20 +213,44 @@ def finite_noise(noise: npt.ArrayLike, shape: tuple[int, ...], name: str = "nois
     return arr
 
 
+def peak_magnitude(values: np.ndarray) -> float:
+    """max |values| without a temporary array (NaN if any is NaN; empty: 0)."""
+    if values.size == 0:
+        return 0.0
+    with np.errstate(invalid="ignore"):
+        return max(float(values.max()), -float(values.min()))
+
+
+def check_given_noise_output(out: np.ndarray, limit: float | None = None) -> None:
+    """ValueError when a field made from finite caller-given noise left the float range
+    (or, if given, exceeds `limit`): the noise, documented as standard normal, was too large.
+    (Seeded noise cannot get there: σ is bounded.)"""
+    peak = peak_magnitude(out)
+    bound = np.finfo(out.dtype).max if limit is None else limit
+    if not peak <= bound:  # NaN too
+        reach = "overflows " + str(out.dtype) if not np.isfinite(peak) else f"reaches {peak:g}"
+        raise ValueError(
+            f"the field made from the given noise {reach}, beyond the {bound:g} it may hold: "
+            "the noise is standard normal (rescale it)"
+        )
+
+
 def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str = "data"):
     """Data as a fresh C-ordered float64 array with NaN at every missing pixel, plus the
     boolean array of valid pixels.
 
     Missing: NaN or infinite values, pixels masked by a ``numpy.ma.MaskedArray`` and pixels
     where ``mask`` is True (the ``numpy.ma`` convention: True marks a pixel to leave out).
-    Integer (uint8, uint16, …) and float inputs are accepted; bool and complex are refused.
+    Integer (uint8, uint16, …) and float inputs are accepted; bool, complex, strings and
+    other non-numbers are refused (TypeError, :func:`check_real_dtype`).
     """
     missing = np.ma.getmaskarray(data) if isinstance(data, np.ma.MaskedArray) else None
     raw = np.ma.getdata(data) if isinstance(data, np.ma.MaskedArray) else np.asarray(data)
-    if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
-        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    check_real_dtype(raw, name)
     try:
         values = np.array(raw, dtype=np.float64, order="C")
+    except OverflowError:
+        raise ValueError(f"{name} hold a number beyond float64's range") from None
     except (TypeError, ValueError) as err:
         raise TypeError(f"{name} must be a numeric array: {err}") from None
     if mask is not None:

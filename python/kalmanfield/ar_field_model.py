@@ -14,12 +14,14 @@ from ._validation import (
     SeedLike,
     ShapeLike,
     allocate,
+    check_given_noise_output,
     check_memory,
     finite_noise,
     float_dtype,
     grid_shape,
     positive_float,
     positive_int,
+    real_array,
     real_value,
     resolve_seed,
     thread_count,
@@ -141,7 +143,8 @@ class ARFieldModel:
         """σ² Π_k R_k(r_k) (SPEC §1.1–1.2) for lags of shape (..., N), integer or real
         (real lags use ρ^|r|·polynomial(|r|) of [P 2.9]). For a 1-axis model, lags of any
         shape whose last axis is not of length 1 are taken as scalar lags."""
-        arr = np.asarray(lags, dtype=np.float64)
+        shape: tuple[int, ...] = np.shape(lags)  # (real_array makes a 0-d input 1-d)
+        arr = real_array(lags, "lags").reshape(shape)
         if self.ndim == 1 and (arr.ndim == 0 or arr.shape[-1] != 1):
             arr = arr[..., np.newaxis]
         if arr.ndim == 0 or arr.shape[-1] != self.ndim:
@@ -185,7 +188,7 @@ class ARFieldModel:
             any number of threads.
         noise : optional driving white noise ξ, standard normal, of shape `shape` (ξ[ī] drives
             element ī). When given, `seed` is ignored. Lets the NumPy reference be fed the
-            same input.
+            same input. ValueError when the field it makes leaves the dtype's range.
         dtype : float64 or float32. float32 runs the recursions in single precision where
             their rounding errors stay below ~1e-3 σ (1/β̃ ≤ 84 on every axis: e.g. (0.9, 2),
             (0.95, 2)); smoother models are made in float64 and rounded once (the float64
@@ -201,6 +204,8 @@ class ARFieldModel:
         seed_value = 0 if given is not None else resolve_seed(seed)
         threads = thread_count(threads)
         self._core.sample_into(out, seed_value, given, threads)
+        if given is not None:
+            check_given_noise_output(out)
         return out
 
     def stream(

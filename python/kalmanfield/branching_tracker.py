@@ -53,6 +53,9 @@ __all__ = ["BranchingTracker"]
 #: beyond ~1e154 those squares leave float64 (1e200 gave NaN tracks)
 MAX_MEASUREMENT = 1e150
 
+#: the most parameters a measurement vector may have (each has its own filter and column)
+MAX_PARAMS = 2**16
+
 _STATS_COLUMNS = ["measurements", "live_before", "children", "live", "seeds", "bookkeeping"]
 
 
@@ -87,8 +90,8 @@ class BranchingTracker:
 
     Parameters
     ----------
-    n_params : k, length of a measurement vector; the first ``n_spatial`` entries are
-        positions (default min(k, 2)).
+    n_params : k, length of a measurement vector (at most 2**16); the first ``n_spatial``
+        entries are positions (default min(k, 2)).
     order : ν per parameter (scalar or one per parameter, ≤ 4); default 1 (nearly constant
         velocity).
     process_std : std of the white (ν+1)-th derivative per parameter (px/frame² for ν = 1).
@@ -176,6 +179,8 @@ class BranchingTracker:
         seed: SeedLike = 0,
     ) -> None:
         k = positive_int(n_params, "n_params")
+        if k > MAX_PARAMS:  # (2**62 ran out of memory building the per-parameter lists)
+            raise ValueError(f"n_params must be at most {MAX_PARAMS}, got {k}")
         s = min(k, 2) if n_spatial is None else positive_int(n_spatial, "n_spatial")
         if s > k:
             raise ValueError(f"n_spatial ({s}) cannot exceed n_params ({k})")

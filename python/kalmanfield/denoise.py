@@ -3,14 +3,23 @@ noise level estimated from the noisy image itself, optionally locally adapted.""
 
 from __future__ import annotations
 
-from typing import Literal
+import warnings
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
 from ._row_filter import images, row_model
-from ._validation import positive_float, positive_int, real_array, thread_count
+from ._validation import (
+    peak_magnitude,
+    positive_float,
+    positive_int,
+    power_of_two_exponent,
+    real_array,
+    real_number,
+    thread_count,
+)
 from .ar_field_model import ARFieldModel
 from .identification import MAX_IDENTIFIED_ORDER, minimise_over_rho
 from .scalar_row_filter import ScalarRowFilter, check_row_models
@@ -27,11 +36,47 @@ def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.nda
     at the borders, so any window ≥ 2 max(H, W) + 1 gives the whole frame's moments), for
     an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
     NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
-    box holds none."""
+    box holds none. Images whose largest |pixel| lies outside [2⁻⁴⁰⁰, 2⁴⁰⁰] are scaled by a
+    power of two (exact) for the sums of squares, so the moments of data of any magnitude
+    are those of the scaled data, scaled back (variances below float64's normal range are
+    rounded to its subnormal numbers); ValueError ("rescale") when a variance overflows
+    float64 (|pixel deviations| ≳ 1e154)."""
     z = images(image, missing=True)
+    radius = _box_radius(window, z)
+    exponent = _moments_scale(z)
+    if exponent:
+        z = np.ldexp(z, -exponent)
     mean, var = np.empty_like(z), np.empty_like(z)
-    _core.local_moments_into(z, _box_radius(window, z), mean, var)
+    _core.local_moments_into(z, radius, mean, var)
+    if exponent:
+        np.ldexp(mean, exponent, out=mean)
+        with np.errstate(over="ignore"):
+            np.ldexp(var, 2 * exponent, out=var)
+        if exponent > 0 and np.isinf(var).any():
+            raise ValueError(
+                f"the local variances overflow float64 (pixels of magnitude ~2^{exponent}): "
+                "rescale the image"
+            )
     return mean, var
+
+
+#: pixels up to this magnitude (and down to its reciprocal) need no scaling for the box
+#: sums of squares: (2 · 2^400)² times any pixel count stays far inside float64, and the
+#: squared deviations of pixels ≥ 2^-400 (at least their ulp, ~2^-452) stay normal
+_UNSCALED = 2.0**400
+
+
+def _moments_scale(z: np.ndarray) -> int:
+    """0, or the power of two to divide `z` by for :func:`local_moments`
+    (:func:`power_of_two_exponent` of its largest finite |pixel|)."""
+    if z.size == 0:
+        return 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN image: no scaling
+        peak = max(float(np.fmax.reduce(z, axis=None)), -float(np.fmin.reduce(z, axis=None)))
+    if not (peak > 0 and (peak > _UNSCALED or peak < 1.0 / _UNSCALED)):
+        return 0
+    return power_of_two_exponent(np.array([peak])) or 0
 
 
 def _box_radius(window: object, z: np.ndarray) -> int:
@@ -187,12 +232,15 @@ def denoise(
     method : "scalar" (:class:`ScalarRowFilter`, O(W) per row) or "vector"
         (:class:`VectorRowFilter`, optimal, O(W²) per row; not adaptive).
     smooth : run the backward pass over the rows (default).
-    mean : the field mean of the stationary model (None: the image mean).
+    mean : the field mean of the stationary model (None: the image mean); checked in both
+        modes, used by the stationary one (the adaptive mode follows the local means).
     threads : threads for the frames of a stack (None: all cores). In the adaptive mode a
         single image runs on the calling thread (GIL released) whatever `threads` says: its
         kernel has no parallel part, and the thread keeps its scratch buffers between calls.
     Returns float64 of the image's shape (an empty stack, (0, H, W), gives an empty one).
-    uint8/uint16/float inputs are accepted.
+    uint8/uint16/float inputs are accepted. Images whose largest |pixel| lies outside
+    [2⁻⁴⁰⁰, 2⁴⁰⁰] are denoised scaled by a power of two (exact; noise_var, mean and a
+    stationary model's σ alike) and scaled back, so any magnitude float64 holds works.
     NaN pixels are missing observations (method="scalar"): left out of the noise estimate,
     the model fit and the box moments, given weight 0 by the filter and filled by its
     estimate from the neighbouring pixels (a box without an observed pixel is widened,
@@ -211,12 +259,18 @@ def denoise(
         raise ValueError("adaptive denoising needs method='scalar' (per-pixel noise variances)")
     z = images(image, missing=method == "scalar")
     nv = None if noise_var is None else positive_float(noise_var, "noise_var")
+    mean = None if mean is None else real_number(mean, "mean")
     if model is not None:
         row_model(model)
     if z.size == 0:  # a stack of no frames
         return z.copy()
     if np.isnan(z.flat[0]) and np.isnan(z).all():  # (a pass only if the first pixel is NaN)
         raise ValueError("every pixel is NaN (missing): there is nothing to denoise")
+    exponent = _moments_scale(z)
+    if exponent:
+        settings: dict[str, Any] = dict(method=method, smooth=smooth, adaptive=adaptive)
+        settings.update(window=window, threads=threads, row_models=row_models)
+        return _rescaled(z, exponent, nv, model, mean, settings)
     if nv is None:
         nv = estimate_noise_var(z)
         if not nv > 0:
@@ -241,6 +295,35 @@ def denoise(
     else:
         filt = VectorRowFilter(model, nv, z.shape[-1], smooth=smooth, mean=mean, threads=threads)
     return filt.filter(z)
+
+
+def _rescaled(
+    z: np.ndarray,
+    exponent: int,
+    nv: float | None,
+    model: ARFieldModel | None,
+    mean: float | None,
+    settings: dict[str, Any],
+) -> np.ndarray:
+    """:func:`denoise` of z · 2^−exponent (with noise_var, mean and a stationary model's σ
+    scaled alike), times 2^exponent: the same bits as the unscaled computation wherever that
+    neither overflows nor underflows (both modes are scale-equivariant)."""
+    if nv is not None:
+        nv = float(np.ldexp(nv, -2 * exponent))
+        if not np.finfo(np.float64).tiny <= nv < np.inf:
+            raise ValueError(
+                f"noise_var relative to the images' scale (pixels ~2^{exponent}) would "
+                "underflow or overflow float64: rescale the images or noise_var"
+            )
+    if model is not None and not settings["adaptive"]:  # (the detail model has unit σ)
+        model = ARFieldModel(model.rho, model.order, float(np.ldexp(model.sigma, -exponent)))
+    scaled_mean = None if mean is None else float(np.ldexp(mean, -exponent))
+    out = denoise(np.ldexp(z, -exponent), nv, model, mean=scaled_mean, **settings)
+    with np.errstate(over="ignore"):
+        np.ldexp(out, exponent, out=out)
+    if not np.isfinite(peak_magnitude(out)):
+        raise ValueError("the denoised images overflow float64: rescale them")
+    return out
 
 
 def _adaptive(

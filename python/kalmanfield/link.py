@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ._validation import real_array
 from .branching_tracker import BranchingTracker
 
 __all__ = ["link"]
@@ -37,9 +38,11 @@ def link(
 ) -> pd.DataFrame:
     """Links detections into tracks with :class:`BranchingTracker` (SPEC §3.1–3.3).
 
-    ``detections``: a DataFrame with ``frame`` (integers), the ``pos_columns`` (default x, y)
-    and the ``features`` columns. Returns a copy with a ``particle`` column: the track of each
-    detection on a chosen confirmed sequence, −1 for the others (clutter, unconfirmed).
+    ``detections``: a DataFrame with ``frame`` (integers within int64: ValueError otherwise),
+    the ``pos_columns`` (default x, y) and the ``features`` columns (real numbers: complex,
+    bool and string columns are a TypeError). Returns a copy with a ``particle`` column: the
+    track of each detection on a chosen confirmed sequence, −1 for the others (clutter,
+    unconfirmed).
 
     The model is a nearly-constant-velocity Kalman filter per column (order 1 unless
     ``order=`` is given): ``measurement_std`` is the position noise (px), ``process_std`` the
@@ -56,6 +59,9 @@ def link(
     """
     if not isinstance(detections, pd.DataFrame):
         raise TypeError(f"detections must be a pandas DataFrame, got {type(detections).__name__}")
+    for name, names in (("pos_columns", pos_columns), ("features", features)):
+        if isinstance(names, (str, bytes)):  # ("xy" had been read as the columns x and y)
+            raise TypeError(f"{name} must be a sequence of column names, got {names!r}")
     cols = [*pos_columns, *features]
     if not list(pos_columns):
         raise ValueError("pos_columns must name at least one position column")
@@ -71,7 +77,7 @@ def link(
             f"the frame numbers span {span} frames for {len(df)} detections (every frame in "
             "between is processed, empty ones too); renumber the frames"
         )
-    values = df[cols].to_numpy(dtype=float)
+    values = _columns(df, cols)
     if not np.isfinite(values).all():
         raise ValueError(f"the columns {cols} must be finite (drop NaN rows first)")
     if kwargs.get("clutter_density") is None and len(df):
@@ -120,6 +126,8 @@ def _frame_numbers(column: np.ndarray) -> np.ndarray:
         f"the frame column must hold integer frame numbers within int64, got dtype {column.dtype}"
     )
     if np.issubdtype(column.dtype, np.integer):
+        if column.dtype.kind == "u" and column.size and column.max() >= 2**63:
+            raise bad  # (astype wrapped them round to negative frames)
         return column.astype(np.int64)
     limit = float(2**63)
     if column.dtype.kind == "f":
@@ -141,6 +149,24 @@ def _frame_numbers(column: np.ndarray) -> np.ndarray:
             if not (math.isfinite(value) and value.is_integer() and -limit <= value < limit):
                 raise bad
     return np.array([int(f) for f in column], dtype=np.int64)
+
+
+def _columns(df: pd.DataFrame, cols: list[str]) -> np.ndarray:
+    """The position and feature columns as an (n, k) float64 array, each checked as
+    :func:`real_array` checks arrays (complex, bool, strings, numeric strings too: TypeError
+    naming the column); pandas' nullable numeric columns give NaN for their missing values."""
+    out = np.empty((len(df), len(cols)))
+    for q, name in enumerate(cols):
+        series = df[name]
+        if isinstance(series, pd.DataFrame):
+            raise ValueError(f"detections have more than one column named {name!r}")
+        dtype = series.dtype
+        if isinstance(dtype, pd.api.extensions.ExtensionDtype) and dtype.kind in "iuf":
+            column = series.to_numpy(dtype=np.float64, na_value=np.nan)
+        else:
+            column = series.to_numpy()
+        out[:, q] = real_array(column, f"column {name!r}")
+    return out
 
 
 def table_clutter_density(values: np.ndarray, frame_numbers: np.ndarray) -> float:

@@ -11,6 +11,7 @@ from ._validation import (
     SeedLike,
     ShapeLike,
     allocate,
+    check_given_noise_output,
     finite_noise,
     float_dtype,
     grid_shape,
@@ -33,7 +34,8 @@ def sample_product_field(
 
     Same correlation function σ² Π R_k as :meth:`ARFieldModel.sample` but not Gaussian (for two
     axes the marginal density is K0(|x|/σ²)/(πσ²)); O(1) work per element.
-    `noise`, when given, is one standard-normal 1-D array per axis, of length shape[k].
+    `noise`, when given, is one standard-normal 1-D array per axis, of length shape[k]
+    (ValueError when the field it makes leaves the dtype's range).
     """
     if not isinstance(model, ARFieldModel):
         raise TypeError(f"model must be an ARFieldModel, got {type(model).__name__}")
@@ -52,4 +54,6 @@ def sample_product_field(
     out = allocate(dims, dt)
     threads = thread_count(threads)
     model._core.product_into(out, 0 if given else resolve_seed(seed), given, threads)
+    if given is not None:
+        check_given_noise_output(out)
     return out

@@ -32,10 +32,27 @@ class YuleWalkerModel:
 
     def predict(self, image: npt.ArrayLike) -> np.ndarray:
         """One-step (quarter-plane) prediction x̂_kl = mean - Σ_{(i,j)≠0} α_ij (x - mean)_{k-i,l-j};
-        NaN where the template leaves the image (everywhere on an image smaller than it)."""
-        x = real_array(image, "image") - self.mean
+        NaN where the template leaves the image (everywhere on an image smaller than it) or
+        touches a NaN (missing) pixel. Infinite pixels, and predictions that overflow
+        float64, are refused (ValueError)."""
+        x = real_array(image, "image")
         if x.ndim != 2:
             raise ValueError(f"image must be 2-D, got {x.ndim}-D")
+        if np.isinf(x).any():
+            raise ValueError("image holds infinite pixels (NaN marks a missing one)")
+        with np.errstate(over="ignore", invalid="ignore"):
+            x = x - self.mean
+            out = self._predict_centred(x)
+        if np.isinf(x).any() or np.isinf(out).any() or np.isnan(out[self._defined(x)]).any():
+            raise ValueError("the prediction overflows float64: rescale the image")
+        return out
+
+    def _defined(self, x: np.ndarray) -> np.ndarray:
+        """Where a prediction of the centred image x is defined: the template inside the
+        image and on no NaN pixel (:meth:`_predict_centred` of x · 0 is 0 there)."""
+        return ~np.isnan(self._predict_centred(x * 0.0))
+
+    def _predict_centred(self, x: np.ndarray) -> np.ndarray:
         n_y, n_x = self.alpha.shape[0] - 1, self.alpha.shape[1] - 1
         out = np.full(x.shape, np.nan)
         if x.shape[0] <= n_y or x.shape[1] <= n_x:
