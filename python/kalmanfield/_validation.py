@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
 from collections.abc import Iterable, Sequence
 from typing import Any, Union
 
 import numpy as np
 import numpy.typing as npt
+
+from ._memory import memory_budget
 
 SeedLike = Union[int, np.integer, np.random.Generator, None]
 ShapeLike = Union[int, Sequence[int]]
@@ -182,18 +183,16 @@ def float_dtype(dtype: npt.DTypeLike, sigma: float | None = None) -> np.dtype:
 
 
 def check_memory(shape: tuple[int, ...], dtype: np.dtype, copies: int = 1) -> None:
-    """MemoryError when `copies` arrays of `shape` and `dtype` exceed the machine's physical
-    memory (before a kernel would try to allocate them and abort)."""
+    """MemoryError when `copies` arrays of `shape` and `dtype` exceed the memory this process
+    may take (the machine's physical memory, or less under an address-space or cgroup limit),
+    before a kernel would try to allocate them and abort."""
     nbytes = copies * int(np.prod(shape, dtype=object)) * dtype.itemsize
-    try:
-        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
-        physical = None
-    if physical is not None and nbytes > physical:
+    budget = memory_budget()
+    if budget is not None and nbytes > budget[0]:
         what = f"a {shape} {dtype} array" if copies == 1 else f"{copies} {shape} {dtype} arrays"
         raise MemoryError(
             f"{what} need{'s' if copies == 1 else ''} {nbytes / 2**30:.1f} GiB, more than "
-            f"the {physical / 2**30:.1f} GiB of memory of this machine"
+            f"the {budget[0] / 2**30:.1f} GiB {budget[1]}"
         )
 
 

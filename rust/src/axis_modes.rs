@@ -3,7 +3,10 @@
 
 use crate::axis_model::AxisModel;
 use crate::error::{FieldError, Result};
-use faer::{Mat, Side};
+use faer::diag::Diag;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
+use faer::{Mat, Par};
 
 /// Toeplitz(R) = U diag(λ) Uᵀ on `size` points of one axis.
 #[derive(Debug, Clone)]
@@ -16,21 +19,42 @@ pub struct AxisModes {
 }
 
 impl AxisModes {
-    /// The modes of `axis` on a line of `size` points.
+    /// The modes of `axis` on a line of `size` points. One thread (the same bits whatever
+    /// the thread count); the workspace is allocated fallibly (an `OutOfMemory` error, not an
+    /// abort, when it does not fit).
     pub fn new(axis: &AxisModel, size: usize) -> Result<Self> {
         let correlation: Vec<f64> = (0..size).map(|k| axis.correlation(k as f64)).collect();
-        let toeplitz = Mat::from_fn(size, size, |i, j| correlation[i.abs_diff(j)]);
-        let eigen = toeplitz.self_adjoint_eigen(Side::Lower).map_err(|e| {
-            FieldError::InvalidParameter(format!("eigendecomposition failed: {e:?}"))
-        })?;
+        let out_of_memory = || {
+            FieldError::OutOfMemory(format!(
+                "cannot allocate the eigendecomposition of a {size}×{size} correlation matrix"
+            ))
+        };
+        let square = |entry: &dyn Fn(usize, usize) -> f64| {
+            let mut m = Mat::<f64>::new();
+            m.try_reserve(size, size).map_err(|_| out_of_memory())?;
+            m.resize_with(size, size, entry);
+            Ok::<_, FieldError>(m)
+        };
+        let toeplitz = square(&|i, j| correlation[i.abs_diff(j)])?;
+        let mut vectors = square(&|_, _| 0.0)?;
+        let mut raw = Diag::<f64>::zeros(size);
+        let (par, params) = (Par::Seq, Default::default());
+        let scratch = self_adjoint_evd_scratch::<f64>(size, ComputeEigenvectors::Yes, par, params);
+        let mut buffer = MemBuffer::try_new(scratch).map_err(|_| out_of_memory())?;
+        self_adjoint_evd(
+            toeplitz.as_ref(),
+            raw.as_mut(),
+            Some(vectors.as_mut()),
+            par,
+            MemStack::new(&mut buffer),
+            params,
+        )
+        .map_err(|e| FieldError::InvalidParameter(format!("eigendecomposition failed: {e:?}")))?;
         crate::vector_state::clear_upper_state();
-        let raw = eigen.S().column_vector();
+        let raw = raw.column_vector();
         let largest = (0..size).map(|j| raw[j]).fold(0.0f64, f64::max);
         let values = (0..size).map(|j| raw[j].max(1e-15 * largest)).collect();
-        Ok(Self {
-            vectors: eigen.U().to_owned(),
-            values,
-        })
+        Ok(Self { vectors, values })
     }
 
     /// Number of points of the axis.

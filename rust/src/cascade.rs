@@ -11,7 +11,7 @@
 //! Every element is computed by the same arithmetic in the serial and the parallel paths, so
 //! the result does not depend on the number of threads.
 
-use crate::error::{FieldError, Result};
+use crate::error::{try_zeros, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::noise::{Noise, Real};
 use crate::stationary_start::AxisRecursion;
@@ -44,7 +44,7 @@ pub fn sample_into<T: Real>(
             let Ok(recursions) = model.recursions::<f64>() else {
                 return Err(narrow);
             };
-            let mut wide = vec![0.0; out.len()];
+            let mut wide = try_zeros(out.len(), "the float64 field")?;
             generate(&mut wide, shape, &recursions, &noise, 0);
             out.iter_mut()
                 .zip(&wide)

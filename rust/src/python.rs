@@ -22,7 +22,7 @@ use numpy::{
     Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray, PyReadonlyArray1,
     PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 mod branching;
@@ -39,6 +39,7 @@ impl From<FieldError> for PyErr {
     fn from(e: FieldError) -> PyErr {
         match e {
             FieldError::NonFinite(_) => NonFiniteError::new_err(e.to_string()),
+            FieldError::OutOfMemory(_) => PyMemoryError::new_err(e.to_string()),
             _ => PyValueError::new_err(e.to_string()),
         }
     }

@@ -29,7 +29,7 @@
 use crate::axis_model::AxisModel;
 use crate::band_ldl::{BandLdlBatch, LANES};
 use crate::banded::{fused_available, BandCholesky, SymmetricBand};
-use crate::error::{FieldError, Result};
+use crate::error::{try_zeros, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
@@ -698,7 +698,7 @@ impl ScalarRowFilter {
             }
             Self::check_weights(r)?;
         }
-        let mut out = vec![0.0; height * w];
+        let mut out = try_zeros(height * w, "the error-variance map")?;
         if height == 0 {
             return Ok(out);
         }

@@ -21,7 +21,7 @@
 use crate::axis_model::AxisModel;
 use crate::axis_modes::AxisModes;
 use crate::column_precision::{ColumnPrecision, INFORMATION_RATIO};
-use crate::error::{FieldError, Result};
+use crate::error::{try_zeros, FieldError, Result};
 use crate::field_model::FieldModel;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
@@ -210,8 +210,7 @@ impl VectorRowFilter {
             return Ok(());
         }
         let schedule = self.schedule(height);
-        self.filter_with(&schedule, z, out, height, smooth, par);
-        Ok(())
+        self.filter_with(&schedule, z, out, height, smooth, par)
     }
 
     /// Filters a stack of `frames` images in parallel (one frame per task).
@@ -231,8 +230,7 @@ impl VectorRowFilter {
         let schedule = self.schedule(height);
         out.par_chunks_mut(size)
             .zip(z.par_chunks(size))
-            .for_each(|(o, f)| self.filter_with(&schedule, f, o, height, smooth, false));
-        Ok(())
+            .try_for_each(|(o, f)| self.filter_with(&schedule, f, o, height, smooth, false))
     }
 
     fn filter_with(
@@ -243,11 +241,11 @@ impl VectorRowFilter {
         height: usize,
         smooth: bool,
         par: bool,
-    ) {
+    ) -> Result<()> {
         let w = self.width();
         let faer_par = if par { Par::rayon(0) } else { Par::Seq };
         // modal[j * height + t] = (Uᵀ z̄_t)_j: each mode's column is contiguous
-        let mut modal = vec![0.0; height * w];
+        let mut modal = try_zeros(height * w, "the modal image")?;
         let image = MatRef::from_row_major_slice(z, height, w);
         matmul(
             MatMut::from_column_major_slice_mut(&mut modal, height, w),
@@ -272,6 +270,7 @@ impl VectorRowFilter {
             1.0,
             faer_par,
         );
+        Ok(())
     }
 
     /// Kalman filter (+ RTS) of mode j over the rows; the column is replaced by the estimates.
@@ -333,7 +332,7 @@ impl VectorRowFilter {
             return Ok(());
         }
         // modal[j * height + t]: error variance of row t in mode j
-        let mut modal = vec![0.0; height * w];
+        let mut modal = try_zeros(height * w, "the modal error variances")?;
         modal
             .par_chunks_mut(height)
             .enumerate()

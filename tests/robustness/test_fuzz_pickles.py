@@ -439,7 +439,6 @@ def suite_tracker_outside() -> list[str]:
 SUITES += [("suite_tracker_outside",), ("suite_tracker_state_bytes",)]
 
 
-@pytest.mark.xfail(strict=False, reason="issue 49 item 2, lead")
 def test_corrupt_tracker_pickles_outside_its_state_bytes():
     """The pickle's opcodes, the configuration and the names (the Rust state bytes intact).
     The long mode found: KeyError from BranchingTracker.__setstate__ for a missing key, and
@@ -476,7 +475,6 @@ def suite_tracker_state_bytes() -> list[str]:
     return failures
 
 
-@pytest.mark.xfail(strict=False, reason="issue 49 item 2, lead")
 def test_corrupt_numbers_inside_the_tracker_state_bytes():
     """Special words (NaN, inf, 2**63 − 1, −1, …) and flips inside the Rust state bytes: the
     loader must refuse every one it cannot continue from (issue 49 item 2)."""
