@@ -597,9 +597,12 @@ def test_corrupt_counter_in_state_is_an_error_not_an_abort():
 
 
 # The sections of the state bytes (format 2), in order: i = int64, f = float64, b = bool.
+ARENA = [("parent", "i"), ("frame", "i"), ("meas", "i"), ("state", "f"), ("index", "f")]
+ARENA += [("llr", "f"), ("serial", "i"), ("next_serial", "i")]
 STATE_SECTIONS = (
-    [("widths", "i"), ("node.parent", "i"), ("node.frame", "i"), ("node.meas", "i")]
-    + [("node.state", "f"), ("node.index", "f"), ("node.llr", "f")]
+    [("widths", "i")]
+    + [(f"node.{name}", kind) for name, kind in ARENA]
+    + [(f"archive.{name}", kind) for name, kind in ARENA]
     + [(f"h.{n}", "i") for n in "node tree n_inc hits miss node_last recent cur start".split()]
     + [(f"h.{n}", "f") for n in "x p inc i_tot llr t_last pos_last llr_last".split()]
     + [("h.conf", "b"), ("scalars", "i"), ("time", "f"), ("frame_offsets", "i")]

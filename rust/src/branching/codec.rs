@@ -5,11 +5,14 @@
 //! range, every float finite) before it replaces the tracker's, so a corrupt one is an error
 //! at load time, never a panic or NaN tracks later.
 //!
-//! Version 2 stores the live track trees only (id, confirmed, candidate); version 1 (every
-//! tree ever made, with an alive flag, and five statistics per frame) still loads.
+//! Version 2 stores the live track trees only (id, confirmed, candidate), the finished
+//! tracks' chains in their own arena and every node's creation number; version 1 (every tree
+//! ever made with an alive flag, the finished chains in the live arena, five statistics per
+//! frame) still loads.
 
 use super::config::MAX_TIME;
 use super::hypotheses::{Hypotheses, MISS, NONE};
+use super::nodes::Nodes;
 use super::tracker::{BranchingTracker, FrameStats, OnlineAnswer, Tree};
 use crate::error::{FieldError, Result};
 
@@ -37,6 +40,16 @@ impl Writer {
         self.u64(v.len() as u64);
         self.0.extend(v.iter().map(|&b| u8::from(b)));
     }
+    fn nodes(&mut self, n: &Nodes) {
+        for v in [&n.parent, &n.frame, &n.meas] {
+            self.i64s(v);
+        }
+        for v in [&n.state, &n.index, &n.llr] {
+            self.f64s(v);
+        }
+        self.i64s(&n.serial);
+        self.i64s(&[n.next_serial]);
+    }
 }
 
 struct Reader<'a>(&'a [u8]);
@@ -58,6 +71,18 @@ fn check(ok: bool, what: &str) -> Result<()> {
     } else {
         Err(inconsistent(what))
     }
+}
+
+/// Parents come before their children (a chain always ends, at a root).
+fn check_parents(nodes: &Nodes) -> Result<()> {
+    check(
+        nodes
+            .parent
+            .iter()
+            .enumerate()
+            .all(|(i, &p)| p >= -1 && p < i as i64),
+        "node parents",
+    )
 }
 
 fn all_finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
@@ -103,6 +128,27 @@ impl Reader<'_> {
         let n = self.len(1)?;
         Ok(self.bytes(n)?.iter().map(|&b| b != 0).collect())
     }
+    /// An arena of version 1: no creation numbers (its ids are in creation order).
+    fn nodes_v1(&mut self, n_state: usize) -> Result<Nodes> {
+        let mut n = Nodes::new(n_state);
+        n.parent = self.i64s()?;
+        n.frame = self.i64s()?;
+        n.meas = self.i64s()?;
+        n.state = self.f64s()?;
+        n.index = self.f64s()?;
+        n.llr = self.f64s()?;
+        n.serial = (0..n.parent.len() as i64).collect();
+        n.next_serial = n.parent.len() as i64;
+        Ok(n)
+    }
+    fn nodes(&mut self, n_state: usize) -> Result<Nodes> {
+        let mut n = self.nodes_v1(n_state)?;
+        n.serial = self.i64s()?;
+        let next = self.i64s()?;
+        check(next.len() == 1, "node count")?;
+        n.next_serial = next[0];
+        Ok(n)
+    }
 }
 
 impl BranchingTracker {
@@ -112,13 +158,8 @@ impl BranchingTracker {
         w.0.extend_from_slice(MAGIC);
         let wd = self.w;
         w.i64s(&[wd.state, wd.cov, wd.memory, wd.spatial, wd.depth].map(|v| v as i64));
-        let n = &self.nodes;
-        for v in [&n.parent, &n.frame, &n.meas] {
-            w.i64s(v);
-        }
-        for v in [&n.state, &n.index, &n.llr] {
-            w.f64s(v);
-        }
+        w.nodes(&self.nodes);
+        w.nodes(&self.archive);
         let h = &self.h;
         for v in [
             &h.node,
@@ -209,12 +250,13 @@ impl BranchingTracker {
             return Err(corrupt());
         }
         let mut t = self.clone();
-        t.nodes.parent = r.i64s()?;
-        t.nodes.frame = r.i64s()?;
-        t.nodes.meas = r.i64s()?;
-        t.nodes.state = r.f64s()?;
-        t.nodes.index = r.f64s()?;
-        t.nodes.llr = r.f64s()?;
+        if v1 {
+            t.nodes = r.nodes_v1(wd.state)?;
+            t.archive = Nodes::new(wd.state);
+        } else {
+            t.nodes = r.nodes(wd.state)?;
+            t.archive = r.nodes(wd.state)?;
+        }
         let mut h = Hypotheses {
             node: r.i64s()?,
             tree: r.i64s()?,
@@ -259,6 +301,9 @@ impl BranchingTracker {
         let scores = r.f64s()?;
         check(leaves.len() == scores.len(), "finished tracks")?;
         t.finished = leaves.into_iter().zip(scores).collect();
+        if v1 {
+            t.archive_v1_finished()?;
+        }
         t.online = OnlineAnswer {
             frame: r.i64s()?,
             tree: r.i64s()?,
@@ -343,6 +388,23 @@ impl BranchingTracker {
         Ok(())
     }
 
+    /// Version 1 kept the finished tracks' chains in the live arena: copied to the archive
+    /// (the live arena's next compaction drops them there).
+    fn archive_v1_finished(&mut self) -> Result<()> {
+        let n_nodes = self.nodes.len() as i64;
+        check(
+            self.finished
+                .iter()
+                .all(|&(leaf, _)| leaf >= 0 && leaf < n_nodes),
+            "finished tracks",
+        )?;
+        check_parents(&self.nodes)?;
+        for f in &mut self.finished {
+            f.0 = self.archive.append_chain(&self.nodes, f.0);
+        }
+        Ok(())
+    }
+
     /// Every check of a loaded state; the first that fails names what is wrong.
     fn check_state(&self) -> Result<()> {
         self.check_sizes()?;
@@ -356,7 +418,6 @@ impl BranchingTracker {
     /// Every array has the length its count implies.
     fn check_sizes(&self) -> Result<()> {
         let (w, n, h, nodes) = (self.w, self.h.len(), &self.h, &self.nodes);
-        let m = nodes.len();
         check(
             h.node.len() == n
                 && h.tree.len() == n
@@ -374,12 +435,17 @@ impl BranchingTracker {
                 && h.conf.len() == n,
             "sizes of the live sequences",
         )?;
-        check(
-            nodes.state.len() == m * w.state
-                && [&nodes.frame, &nodes.meas].iter().all(|v| v.len() == m)
-                && [&nodes.index, &nodes.llr].iter().all(|v| v.len() == m),
-            "sizes of the nodes",
-        )?;
+        for nodes in [nodes, &self.archive] {
+            let m = nodes.len();
+            check(
+                nodes.state.len() == m * w.state
+                    && [&nodes.frame, &nodes.meas, &nodes.serial]
+                        .iter()
+                        .all(|v| v.len() == m)
+                    && [&nodes.index, &nodes.llr].iter().all(|v| v.len() == m),
+                "sizes of the nodes",
+            )?;
+        }
         let o = &self.online;
         let rows = o.frame.len();
         check(
@@ -432,30 +498,34 @@ impl BranchingTracker {
         check(if n_meas == 0 { empty } else { spans }, "bounding box")
     }
 
-    /// The node arena: parents before children, ids and frames in range, finite values.
+    /// Both arenas: parents before children, ids, frames and creation numbers in range,
+    /// finite values.
     fn check_nodes(&self) -> Result<()> {
-        let (nodes, frame, n_meas) = (&self.nodes, self.frame, self.n_meas);
+        let next = self.nodes.next_serial;
         check(
-            nodes
-                .parent
-                .iter()
-                .enumerate()
-                .all(|(i, &p)| p >= -1 && p < i as i64),
-            "node parents",
+            (0..=1i64 << 62).contains(&next)
+                && self.nodes.serial.windows(2).all(|w| w[0] < w[1])
+                && self.nodes.serial.last().is_none_or(|&s| s < next)
+                && self.archive.serial.iter().all(|&s| (0..next).contains(&s)),
+            "node creation numbers",
         )?;
-        check(
-            nodes.frame.iter().all(|&f| f >= 0 && f < frame.max(1)),
-            "node frames",
-        )?;
-        check(
-            nodes.meas.iter().all(|&g| g >= MISS && g < n_meas),
-            "node measurements",
-        )?;
-        check(
-            all_finite(nodes.state.iter().chain(&nodes.llr))
-                && nodes.index.iter().all(|&v| v.is_finite() && v >= 0.0),
-            "node values",
-        )
+        for nodes in [&self.nodes, &self.archive] {
+            check_parents(nodes)?;
+            check(
+                nodes.frame.iter().all(|&f| f >= 0 && f < self.frame.max(1)),
+                "node frames",
+            )?;
+            check(
+                nodes.meas.iter().all(|&g| g >= MISS && g < self.n_meas),
+                "node measurements",
+            )?;
+            check(
+                all_finite(nodes.state.iter().chain(&nodes.llr))
+                    && nodes.index.iter().all(|&v| v.is_finite() && v >= 0.0),
+                "node values",
+            )?;
+        }
+        Ok(())
     }
 
     /// The live sequences: ids, counters and values.
@@ -532,7 +602,7 @@ impl BranchingTracker {
 
     /// The finished tracks and the online answer.
     fn check_answers(&self) -> Result<()> {
-        let n_nodes = self.nodes.len() as i64;
+        let n_nodes = self.archive.len() as i64;
         check(
             self.finished
                 .iter()

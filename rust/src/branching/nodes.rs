@@ -1,5 +1,7 @@
 //! The node arena of the track trees: one node per (sequence, frame), linked to its parent, so
-//! sequences that share a past share its nodes.
+//! sequences that share a past share its nodes. The tracker keeps two: the live arena (the
+//! live trees, compacted now and then) and the archive of finished tracks (each chain copied
+//! there whole when its tree ends, so compacting the live arena never rescans the answer).
 
 /// Struct-of-arrays node store (ids are indices; −1 = none).
 #[derive(Debug, Clone, Default)]
@@ -15,6 +17,11 @@ pub struct Nodes {
     pub index: Vec<f64>,
     /// Score (log-likelihood ratio against clutter).
     pub llr: Vec<f64>,
+    /// Creation number over the whole run (node ids change with compaction and archiving;
+    /// the order of creation is the final answer's tie-break).
+    pub serial: Vec<i64>,
+    /// The next creation number.
+    pub next_serial: i64,
 }
 
 impl Nodes {
@@ -53,7 +60,29 @@ impl Nodes {
         self.state.extend_from_slice(state);
         self.index.push(index);
         self.llr.push(llr);
+        self.serial.push(self.next_serial);
+        self.next_serial += 1;
         id
+    }
+
+    /// Copies the sequence ending at `leaf` of `from` here, oldest node first and contiguous;
+    /// returns its leaf's id here.
+    pub fn append_chain(&mut self, from: &Nodes, leaf: i64) -> i64 {
+        let ns = self.n_state;
+        let mut parent = -1;
+        for old in from.chain(leaf) {
+            let o = old as usize;
+            self.parent.push(parent);
+            self.frame.push(from.frame[o]);
+            self.meas.push(from.meas[o]);
+            self.state
+                .extend_from_slice(&from.state[o * ns..(o + 1) * ns]);
+            self.index.push(from.index[o]);
+            self.llr.push(from.llr[o]);
+            self.serial.push(from.serial[o]);
+            parent = self.len() as i64 - 1;
+        }
+        parent
     }
 
     /// Node ids of the sequence ending at `leaf`, oldest first.
@@ -96,6 +125,7 @@ impl Nodes {
             self.meas[w] = self.meas[old];
             self.index[w] = self.index[old];
             self.llr[w] = self.llr[old];
+            self.serial[w] = self.serial[old];
             self.state.copy_within(old * ns..(old + 1) * ns, w * ns);
             w += 1;
         }
@@ -104,6 +134,7 @@ impl Nodes {
         self.meas.truncate(w);
         self.index.truncate(w);
         self.llr.truncate(w);
+        self.serial.truncate(w);
         self.state.truncate(w * ns);
         remap
     }
@@ -135,5 +166,12 @@ mod tests {
         assert_eq!(nodes.chain(2), vec![0, 1, 2]);
         assert_eq!(nodes.state, vec![1.0, 2.0, 3.0]);
         assert_eq!(nodes.meas, vec![5, -1, 7]);
+        assert_eq!(nodes.serial, vec![0, 1, 3]);
+        let mut archive = Nodes::new(1);
+        archive.add(-1, 0, 9, &[0.0], 0.0, 0.0);
+        let leaf = archive.append_chain(&nodes, 2);
+        assert_eq!(archive.chain(leaf), vec![1, 2, 3]);
+        assert_eq!(archive.state, vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(archive.serial, vec![0, 0, 1, 3]);
     }
 }

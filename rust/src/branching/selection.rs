@@ -2,15 +2,18 @@
 //! measurement (with the `max_shared` relaxation of the default "llr" ranking).
 
 use super::config::Selection;
+use super::nodes::Nodes;
 use super::tracker::BranchingTracker;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::cmp::{Ordering, Reverse};
 use std::collections::{BinaryHeap, HashSet};
 
-/// One chosen sequence: its node chain (oldest first) and, per node, whether its measurement
-/// is kept (false: given to a better sequence, reported as coasted).
+/// One chosen sequence: its node chain (oldest first, in the archive or the live arena) and,
+/// per node, whether its measurement is kept (false: given to a better sequence, reported as
+/// coasted).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChosenTrack {
+    pub archived: bool,
     pub chain: Vec<i64>,
     pub kept: Vec<bool>,
 }
@@ -20,6 +23,7 @@ struct Entry {
     key: f64,
     neg_hits: i64,
     tick: u64,
+    archived: bool,
     chain: Vec<i64>,
 }
 
@@ -51,44 +55,49 @@ impl Ord for Entry {
 }
 
 impl BranchingTracker {
-    /// (leaf node, score) of every candidate of the final answer.
-    fn candidates(&self) -> Vec<(i64, f64)> {
-        let mut out = self.finished.clone();
+    /// (archived, leaf node, score) of every candidate of the final answer.
+    fn candidates(&self) -> Vec<(bool, i64, f64)> {
+        let mut out: Vec<(bool, i64, f64)> = self
+            .finished
+            .iter()
+            .map(|&(leaf, llr)| (true, leaf, llr))
+            .collect();
         for i in 0..self.h.len() {
             if self.h.conf[i] {
-                out.push((self.h.node[i], self.h.llr[i]));
+                out.push((false, self.h.node[i], self.h.llr[i]));
             }
         }
         for tree in self.trees.values() {
             if tree.confirmed && tree.candidate >= 0 {
-                out.push((tree.candidate, tree.candidate_llr));
+                out.push((false, tree.candidate, tree.candidate_llr));
             }
         }
         out
     }
 
-    /// True when the final answer may take the sequence ending at `leaf` (enough measured
-    /// frames and score).
-    pub(crate) fn selectable(&self, leaf: i64, llr: f64) -> bool {
-        llr >= self.cfg.final_llr && self.hits(&self.nodes.chain(leaf)) >= self.cfg.min_hits
+    /// The arena of a candidate's nodes.
+    fn arena(&self, archived: bool) -> &Nodes {
+        if archived {
+            &self.archive
+        } else {
+            &self.nodes
+        }
     }
 
-    fn hits(&self, chain: &[i64]) -> usize {
-        chain
-            .iter()
-            .filter(|&&n| self.nodes.meas[n as usize] >= 0)
-            .count()
+    /// True when the final answer may take the live sequence ending at `leaf` (enough
+    /// measured frames and score).
+    pub(crate) fn selectable(&self, leaf: i64, llr: f64) -> bool {
+        llr >= self.cfg.final_llr && hits(&self.nodes, &self.nodes.chain(leaf)) >= self.cfg.min_hits
     }
 
     /// The queue key of a candidate (smaller = taken earlier).
-    fn selection_key(&self, leaf: i64, llr: f64, hits: usize) -> f64 {
+    fn selection_key(&self, index: f64, llr: f64, hits: usize) -> f64 {
         let cfg = &self.cfg;
         if cfg.selection == Selection::Llr {
             return -llr;
         }
         let n_inc = (hits as i64 - cfg.nu_max() as i64 - 1).clamp(1, cfg.memory as i64);
         let dof = (self.k() as i64 * n_inc) as f64;
-        let index = self.nodes.index[leaf as usize];
         match cfg.selection {
             Selection::IndexPerDof => index / dof,
             _ => {
@@ -98,22 +107,25 @@ impl BranchingTracker {
         }
     }
 
-    /// The final greedy choice; chosen sequences ordered by (first frame, first node).
+    /// The final greedy choice; chosen sequences ordered by (first frame, first node's
+    /// creation).
     pub fn select(&self) -> Vec<ChosenTrack> {
         let cfg = &self.cfg;
         let mut tick = 0u64;
         let mut heap = BinaryHeap::new();
-        for (leaf, llr) in self.candidates() {
-            let chain = self.nodes.chain(leaf);
-            let hits = self.hits(&chain);
+        for (archived, leaf, llr) in self.candidates() {
+            let nodes = self.arena(archived);
+            let chain = nodes.chain(leaf);
+            let hits = hits(nodes, &chain);
             if hits < cfg.min_hits || llr < cfg.final_llr {
                 continue;
             }
-            let key = self.selection_key(leaf, llr, hits);
+            let key = self.selection_key(nodes.index[leaf as usize], llr, hits);
             heap.push(Reverse(Entry {
                 key,
                 neg_hits: -(hits as i64),
                 tick,
+                archived,
                 chain,
             }));
             tick += 1;
@@ -121,10 +133,11 @@ impl BranchingTracker {
         let mut used: HashSet<i64> = HashSet::new();
         let mut chosen = Vec::new();
         while let Some(Reverse(entry)) = heap.pop() {
+            let nodes = self.arena(entry.archived);
             let meas: Vec<i64> = entry
                 .chain
                 .iter()
-                .map(|&n| self.nodes.meas[n as usize])
+                .map(|&n| nodes.meas[n as usize])
                 .collect();
             let shared: Vec<bool> = meas.iter().map(|m| *m >= 0 && used.contains(m)).collect();
             let n_shared = shared.iter().filter(|&&s| s).count();
@@ -139,25 +152,30 @@ impl BranchingTracker {
                     }
                 }
                 chosen.push(ChosenTrack {
+                    archived: entry.archived,
                     chain: entry.chain,
                     kept: shared.iter().map(|s| !s).collect(),
                 });
                 continue;
             }
             if llr_rule {
-                for piece in self.pieces(&entry.chain, &meas, &shared) {
+                for piece in self.pieces(&entry, &meas, &shared) {
                     heap.push(Reverse(Entry { tick, ..piece }));
                     tick += 1;
                 }
             }
         }
-        chosen.sort_by_key(|c| (self.nodes.frame[c.chain[0] as usize], c.chain[0]));
+        chosen.sort_by_key(|c| {
+            let (nodes, first) = (self.arena(c.archived), c.chain[0] as usize);
+            (nodes.frame[first], nodes.serial[first])
+        });
         chosen
     }
 
     /// The pieces of a chain cut at its shared measurements that are still worth a track
     /// (trailing misses cut, ≥ min_hits measurements, score gained ≥ final_llr).
-    fn pieces(&self, chain: &[i64], meas: &[i64], shared: &[bool]) -> Vec<Entry> {
+    fn pieces(&self, entry: &Entry, meas: &[i64], shared: &[bool]) -> Vec<Entry> {
+        let (nodes, chain) = (self.arena(entry.archived), &entry.chain);
         let mut bounds = vec![-1i64];
         bounds.extend((0..chain.len()).filter(|&i| shared[i]).map(|i| i as i64));
         bounds.push(chain.len() as i64);
@@ -177,22 +195,31 @@ impl BranchingTracker {
             let piece = &chain[lo..end];
             let hits = (lo..end).filter(|&i| meas[i] >= 0).count();
             let base = if lo > 0 {
-                self.nodes.llr[chain[lo - 1] as usize]
+                nodes.llr[chain[lo - 1] as usize]
             } else {
                 0.0
             };
-            let gain = self.nodes.llr[*piece.last().unwrap() as usize] - base;
+            let gain = nodes.llr[*piece.last().unwrap() as usize] - base;
             if hits >= self.cfg.min_hits && gain >= self.cfg.final_llr {
                 out.push(Entry {
                     key: -gain,
                     neg_hits: -(hits as i64),
                     tick: 0,
+                    archived: entry.archived,
                     chain: piece.to_vec(),
                 });
             }
         }
         out
     }
+}
+
+/// Measured frames of a chain.
+fn hits(nodes: &Nodes, chain: &[i64]) -> usize {
+    chain
+        .iter()
+        .filter(|&&n| nodes.meas[n as usize] >= 0)
+        .count()
 }
 
 /// The chosen sequences frame by frame, coasted frames included (`tracks()`).
@@ -215,15 +242,16 @@ impl BranchingTracker {
         let mut t = TrackTable::default();
         let ns = self.nodes.n_state;
         for (pid, track) in self.select().into_iter().enumerate() {
+            let nodes = self.arena(track.archived);
             for (&node, &kept) in track.chain.iter().zip(&track.kept) {
                 let n = node as usize;
-                t.frame.push(self.nodes.frame[n]);
+                t.frame.push(nodes.frame[n]);
                 t.particle.push(pid as i64);
                 t.state
-                    .extend_from_slice(&self.nodes.state[n * ns..(n + 1) * ns]);
-                t.detection.push(if kept { self.nodes.meas[n] } else { -1 });
-                t.index.push(self.nodes.index[n]);
-                t.score.push(self.nodes.llr[n]);
+                    .extend_from_slice(&nodes.state[n * ns..(n + 1) * ns]);
+                t.detection.push(if kept { nodes.meas[n] } else { -1 });
+                t.index.push(nodes.index[n]);
+                t.score.push(nodes.llr[n]);
             }
         }
         t

@@ -47,7 +47,10 @@ pub struct BranchingTracker {
     pub(crate) w: Widths,
     pub(crate) alpha: Vec<f64>,
     pub(crate) p0: Vec<f64>,
+    /// The live arena: nodes of the live trees and their candidates.
     pub nodes: Nodes,
+    /// The finished tracks' chains (`finished` points into it).
+    pub archive: Nodes,
     pub h: Hypotheses,
     pub frame: i64,
     pub t: Option<f64>,
@@ -60,7 +63,7 @@ pub struct BranchingTracker {
     pub(crate) trees: BTreeMap<i64, Tree>,
     /// Track-tree ids handed out so far (the next tree's id).
     pub(crate) n_trees: i64,
-    /// (leaf node, score) of ended track trees' best confirmed sequences.
+    /// (leaf node in `archive`, score) of ended track trees' best confirmed sequences.
     pub finished: Vec<(i64, f64)>,
     pub online: OnlineAnswer,
     pub(crate) compact_at: usize,
@@ -143,6 +146,7 @@ impl BranchingTracker {
         Ok(BranchingTracker {
             alpha: cfg.thresholds()?,
             nodes: Nodes::new(w.state),
+            archive: Nodes::new(w.state),
             h: Hypotheses::default(),
             frame: 0,
             t: None,
@@ -574,8 +578,8 @@ impl BranchingTracker {
         c
     }
 
-    /// Trees that lost every sequence: their best ended confirmed sequence is final (kept
-    /// only if the final answer can take it), and their record goes.
+    /// Trees that lost every sequence: their best ended confirmed sequence is final (moved to
+    /// the archive if the final answer can take it), and their record goes.
     fn close_dead_trees(&mut self, h: &Hypotheses) {
         let mut live = h.tree.clone();
         live.sort_unstable();
@@ -591,7 +595,8 @@ impl BranchingTracker {
         });
         for (leaf, llr) in ended {
             if self.selectable(leaf, llr) {
-                self.finished.push((leaf, llr));
+                let archived = self.archive.append_chain(&self.nodes, leaf);
+                self.finished.push((archived, llr));
             }
         }
     }
@@ -687,7 +692,7 @@ impl BranchingTracker {
         }
     }
 
-    /// Drops the nodes no live sequence, candidate or final answer can reach.
+    /// Drops the nodes no live sequence or live tree's candidate can reach.
     pub fn compact(&mut self) {
         let candidates = self.trees.values().filter(|t| t.candidate >= 0);
         let roots = self
@@ -696,16 +701,12 @@ impl BranchingTracker {
             .iter()
             .chain(&self.h.node_last)
             .copied()
-            .chain(self.finished.iter().map(|f| f.0))
             .chain(candidates.map(|t| t.candidate))
             .collect::<Vec<i64>>();
         self.bookkeeping += self.nodes.len();
         let remap = self.nodes.compact(roots);
         for id in self.h.node.iter_mut().chain(self.h.node_last.iter_mut()) {
             *id = remapped(&remap, *id);
-        }
-        for f in &mut self.finished {
-            f.0 = remapped(&remap, f.0);
         }
         for tree in self.trees.values_mut() {
             tree.candidate = remapped(&remap, tree.candidate);
