@@ -10,7 +10,7 @@
 2. Real images (scikit-image, if installed): the identified model and its time.
 3. Speed: ``identify`` on a 2048² (2,3) field, one thread and all cores; the FFT
    ``sample_correlation`` (lags ±16) and a plain-NumPy implementation of the same statistics
-   (``kalmanfield.reference.identification``) on the same image.
+   (``kalmanfield.reference.identification.kernels``) on the same image.
 
 Run: ``python benches/bench_identify.py [--quick]``; the Markdown report is printed and
 written to ``bench_out/bench_identify.md``.
@@ -29,7 +29,7 @@ import numpy as np
 
 import kalmanfield as kf
 from kalmanfield import _core
-from kalmanfield.reference import identification as ref
+from kalmanfield.reference.identification import kernels as ref
 
 RHOS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98)
 ORDERS = (1, 2, 3, 4)

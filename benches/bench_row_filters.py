@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 import kalmanfield as kf
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 ORDERS = ((1, 1), (2, 2), (3, 3), (4, 4), (1, 2), (2, 1))
 RHOS = (0.5, 0.8, 0.9, 0.95)

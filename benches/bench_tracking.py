@@ -3,7 +3,7 @@
 Trackers, each on the same seeded scenarios of ``tracking_scenario.py``:
 
 1. ``kalmanfield.BranchingTracker`` when the Rust class exists, otherwise the NumPy reference
-   ``kalmanfield.reference.branching.BranchingTracker`` (same keywords, ``TRACKER_CONFIG``);
+   ``kalmanfield.reference.tracking.branching.BranchingTracker`` (same keywords, ``TRACKER_CONFIG``);
    scored on the estimated positions of ``tracks()``, coasted frames included;
 2. trackpy ``link`` (+ ``filter_stubs``) on the detections, if trackpy is installed;
 3. Stone Soup GNN (``GNNWith2DAssignment``) and JPDA (``JPDAwithEHM``, exact JPDA with efficient
@@ -92,7 +92,7 @@ def tracker_class():
     """(class, label): the Rust tracker if built, else the NumPy reference."""
     if hasattr(kf, "BranchingTracker"):
         return kf.BranchingTracker, "kalmanfield.BranchingTracker"
-    from kalmanfield.reference.branching import BranchingTracker
+    from kalmanfield.reference.tracking.branching import BranchingTracker
 
     return BranchingTracker, "reference BranchingTracker (NumPy)"
 

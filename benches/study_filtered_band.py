@@ -33,7 +33,7 @@ import itertools
 
 import numpy as np
 
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 SIZE = 48
 CASES = {

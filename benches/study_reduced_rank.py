@@ -44,7 +44,7 @@ from scipy import sparse
 from scipy.sparse.linalg import splu
 
 import kalmanfield as kf
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 
 def reduced_plan(rho, order, noise_var, width, height, rank):

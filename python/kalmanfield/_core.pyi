@@ -1,4 +1,4 @@
-from typing import final
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
@@ -142,38 +142,11 @@ def wiener_map(
 
 MAX_MOTION_ORDER: int
 
+def tracker_defaults(k: int) -> dict[str, Any]: ...
+
 @final
 class BranchingTracker:
-    def __new__(
-        cls,
-        order: list[int],
-        process_std: list[float],
-        measurement_std: list[float],
-        n_spatial: int,
-        confidence: float,
-        memory: int,
-        max_misses: int,
-        dt: float,
-        p_detect: float,
-        clutter_density: float | None,
-        max_speed: float,
-        n_confirm: int,
-        confirm_llr: float,
-        confirm_window: int,
-        delete_llr: float | None,
-        max_per_tree: int,
-        max_hypotheses: int,
-        max_seeds: int,
-        max_children: int | None,
-        merge_depth: int,
-        maneuver_std: list[float] | None,
-        maneuver_prob: float,
-        min_hits: int,
-        final_llr: float,
-        max_shared: int,
-        selection: str,
-        seed: int,
-    ) -> BranchingTracker: ...
+    def __new__(cls, config: Any) -> BranchingTracker: ...
     def update(self, measurements: npt.NDArray[np.float64], time: float | None = None) -> None: ...
     def tracks(self) -> dict[str, np.ndarray]: ...
     def online(self) -> dict[str, np.ndarray]: ...

@@ -264,3 +264,34 @@ def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str =
         valid &= ~missing
     values[~valid] = np.nan
     return values, valid
+
+
+def images(
+    z: npt.ArrayLike, width: int | None = None, missing: bool = False, finite: bool = True
+) -> np.ndarray:
+    """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns (None:
+    any width). uint8/uint16/int/float32 inputs are converted; None, bool and complex are
+    refused; infinite pixels are refused, and NaN pixels too unless `missing` (NaN = missing
+    observation).
+    finite=False skips the pixel check (for callers whose kernel checks every pixel)."""
+    arr = real_array(z, "images")
+    if arr.ndim not in (2, 3):
+        raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
+    if width is not None and arr.shape[-1] != width:
+        raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
+    if arr.shape[-2] == 0 or arr.shape[-1] == 0:
+        raise ValueError(f"the images have no {'rows' if arr.shape[-2] == 0 else 'columns'}")
+    with np.errstate(over="ignore"):  # (finite pixels whose sum overflows: checked below)
+        total = arr.sum() if finite else 0.0
+    if np.isfinite(total):  # the fast path
+        return arr
+    if missing and not np.isinf(arr).any():
+        return arr
+    if not np.isfinite(arr).all():
+        raise ValueError(
+            "the images hold infinite pixels"
+            if missing
+            else "the images hold NaN or infinite pixels: this filter needs every pixel "
+            "(ScalarRowFilter treats NaN pixels as missing observations)"
+        )
+    return arr

@@ -95,7 +95,7 @@ class RestrictedUnpickler(pickle.Unpickler):
         if module.split(".")[0] not in self.ALLOWED:
             raise pickle.UnpicklingError(f"the harness does not resolve {module}.{name}")
         found = super().find_class(module, name)
-        if module in ("kalmanfield.scalar_row_filter", "kalmanfield.vector_row_filter"):
+        if module in ("kalmanfield.rowfilter.scalar", "kalmanfield.rowfilter.vector"):
             if name == "_rebuild":
                 return _capped_rebuild(found)
         return found

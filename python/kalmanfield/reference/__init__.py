@@ -3,7 +3,7 @@
 Fed the same noise, each function here and its Rust counterpart agree to ~1e-10.
 """
 
-from .ar_field import (
+from .field.ar_field import (
     anisotropy,
     axis_ar_coefficients,
     axis_correlation,

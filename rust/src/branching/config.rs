@@ -31,6 +31,15 @@ pub enum Selection {
 }
 
 impl Selection {
+    /// Its name: "llr", "index_per_dof" or "pvalue".
+    pub fn name(self) -> &'static str {
+        match self {
+            Selection::Llr => "llr",
+            Selection::IndexPerDof => "index_per_dof",
+            Selection::PValue => "pvalue",
+        }
+    }
+
     /// Parses "llr", "index_per_dof" or "pvalue".
     pub fn parse(name: &str) -> Result<Self> {
         match name {

@@ -1,0 +1,191 @@
+"""Segmentation of one frame into bright spots: threshold and connected components (SPEC §3,
+[K93]); the Rust kernel ``_core.segment``."""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any, Literal, overload
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from .. import _core
+from .._validation import positive_int, real_number
+
+#: columns of the segment table, in order (``frame`` comes first when ``frame_no`` is given)
+COLUMNS = (
+    "x",
+    "y",
+    "amplitude",
+    "area",
+    "extent_x",
+    "extent_y",
+    "bbox_x0",
+    "bbox_y0",
+    "bbox_x1",
+    "bbox_y1",
+    "label",
+)
+_INT_COLUMNS = frozenset({"area", "bbox_x0", "bbox_y0", "bbox_x1", "bbox_y1", "label"})
+_KERNEL_DTYPES = frozenset(np.dtype(t) for t in (np.uint8, np.uint16, np.float32, np.float64))
+
+
+@overload
+def segment(
+    frame: npt.ArrayLike,
+    threshold: float,
+    min_area: int = ...,
+    connectivity: int = ...,
+    *,
+    labels: Literal[False] = ...,
+    frame_no: int | None = ...,
+) -> pd.DataFrame: ...
+@overload
+def segment(
+    frame: npt.ArrayLike,
+    threshold: float,
+    min_area: int = ...,
+    connectivity: int = ...,
+    *,
+    labels: Literal[True],
+    frame_no: int | None = ...,
+) -> tuple[pd.DataFrame, np.ndarray]: ...
+def segment(
+    frame: npt.ArrayLike,
+    threshold: float,
+    min_area: int = 1,
+    connectivity: int = 8,
+    *,
+    labels: bool = False,
+    frame_no: int | None = None,
+) -> pd.DataFrame | tuple[pd.DataFrame, np.ndarray]:
+    """Segments of a frame (SPEC §3 (segmentation of each frame, [K93])): the connected
+    components of the pixels brighter than `threshold`, one table row per segment.
+
+    Definitions. A pixel is foreground iff its value v > threshold (strictly); its weight is
+    the excess w = v − threshold > 0. The pixel in row r, column c has centre x = c, y = r.
+    Foreground pixels are connected through their 4 edge neighbours (``connectivity=4``) or
+    also their 4 corner neighbours (``connectivity=8``). Per segment S:
+
+    - ``x``, ``y``: intensity-weighted centroid Σ w x / Σ w, Σ w y / Σ w;
+    - ``amplitude``: mean pixel value Σ v / |S|;
+    - ``area``: pixel count |S|;
+    - ``extent_x``, ``extent_y``: √(Σ w (x − x̄)² / Σ w) and √(Σ w (y − ȳ)² / Σ w), the RMS
+      half-size (σ for a wide Gaussian spot over a low threshold);
+    - ``bbox_x0``, ``bbox_y0``, ``bbox_x1``, ``bbox_y1``: inclusive min/max column and row;
+    - ``label``: 1..n. Segments with area < `min_area` are dropped (label 0 in the label
+      image); the others are numbered consecutively in raster order of their first pixel, and
+      the rows are in label order.
+
+    frame : 2-D array-like, or a 3-D stack of frames (segmented in parallel over the frames,
+        GIL released; the table then always has the ``frame`` column: ``frame_no`` (default
+        0) plus the index in the stack). uint8, uint16, float32 and float64 are used as they
+        are; bool
+        becomes uint8; other integer types (and float16, longdouble) are converted to float64
+        (integers beyond 2⁵³ are rounded). Complex, object and string arrays are refused
+        (TypeError); NaN or infinite pixels, and pixels so large (≳ 1e300), or so far
+        above the threshold, that the segment moments overflow, are refused (ValueError).
+    threshold : finite real number. min_area : positive int. connectivity : 4 or 8.
+    labels : also return the int32 label image (same shape as `frame`, 0 = background).
+    frame_no : if given, a first column ``frame`` holding it (the trackpy convention).
+
+    Returns a DataFrame with columns (frame,) x, y, amplitude, area, extent_x, extent_y,
+    bbox_x0, bbox_y0, bbox_x1, bbox_y1, label (int64 for frame, area, bbox and label;
+    float64 otherwise), or (DataFrame, label image) if `labels`.
+    """
+    image = _frame_array(frame)
+    t = real_number(threshold, "threshold")
+    area = positive_int(min_area, "min_area")
+    conn = _connectivity(connectivity)
+    frame_no = _frame_no(frame_no, image.shape[0] if image.ndim == 3 else 1)
+    if image.ndim == 3:
+        return _segment_stack(image, t, area, conn, frame_no or 0, labels)
+    if image.size == 0:
+        columns, label_image = _empty_columns(), np.zeros(image.shape, dtype=np.int32)
+    else:
+        columns, label_image = _core.segment(image, t, area, conn)
+    _check_moments(columns)
+    table = _table(columns, frame_no)
+    return (table, label_image) if labels else table
+
+
+def _frame_array(frame: npt.ArrayLike) -> np.ndarray:
+    """The frame as a C-contiguous, native-byte-order 2-D array of a kernel dtype."""
+    arr = np.asarray(frame)
+    kind = arr.dtype.kind
+    if kind not in "biuf":
+        raise TypeError(f"frame must hold real numbers, got dtype {arr.dtype}")
+    if arr.ndim not in (2, 3):
+        raise ValueError(
+            f"frame must be 2-D (or a 3-D stack), got {arr.ndim} dimensions (shape {arr.shape})"
+        )
+    target: np.dtype[Any]
+    if kind == "b":
+        target = np.dtype(np.uint8)
+    elif arr.dtype.newbyteorder("=") in _KERNEL_DTYPES:
+        target = arr.dtype.newbyteorder("=")
+    else:
+        target = np.dtype(np.float64)
+    return np.ascontiguousarray(arr, dtype=target)
+
+
+def _segment_stack(
+    stack: np.ndarray, t: float, area: int, conn: int, first: int, labels: bool
+) -> pd.DataFrame | tuple[pd.DataFrame, np.ndarray]:
+    if stack.size == 0:
+        columns = _empty_columns()
+        frames = np.zeros(0, dtype=np.int64)
+        label_image = np.zeros(stack.shape, dtype=np.int32)
+    else:
+        columns, label_image = _core.segment_stack(stack, t, area, conn)
+        _check_moments(columns)
+        frames = columns["frame"]
+    data = {"frame": frames + first, **{name: columns[name] for name in COLUMNS}}
+    table = pd.DataFrame(data, copy=False)
+    return (table, label_image) if labels else table
+
+
+def _connectivity(value: object) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"connectivity must be 4 or 8, got {value!r}")
+    if int(value) not in (4, 8):
+        raise ValueError(f"connectivity must be 4 or 8, got {int(value)}")
+    return int(value)
+
+
+def _frame_no(value: object, frames: int) -> int | None:
+    """The first frame number; the `frames` numbers from it must fit the int64 column."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"frame_no must be an integer or None, got {value!r}")
+    if not -(2**63) <= int(value) <= 2**63 - max(frames, 1):
+        raise ValueError(f"the frame numbers from frame_no={int(value)} overflow int64")
+    return int(value)
+
+
+def _check_moments(columns: dict[str, np.ndarray]) -> None:
+    """ValueError when a segment's moments left float64 (their sums of pixel weights
+    v − threshold times coordinates overflow for weights ≳ 1e300): one check per segment,
+    not per pixel."""
+    moments = (columns[name] for name in COLUMNS if name not in _INT_COLUMNS)
+    if not all(np.isfinite(m).all() for m in moments):
+        raise ValueError(
+            "a segment's moments overflow float64 (its pixel values or their excess over the "
+            "threshold ≳ 1e300): rescale the frame, or raise a threshold that far below them"
+        )
+
+
+def _empty_columns() -> dict[str, np.ndarray]:
+    return {
+        name: np.empty(0, dtype=np.int64 if name in _INT_COLUMNS else np.float64)
+        for name in COLUMNS
+    }
+
+
+def _table(columns: dict[str, np.ndarray], frame_no: int | None) -> pd.DataFrame:
+    data = {name: columns[name] for name in COLUMNS}
+    if frame_no is not None:
+        data = {"frame": np.full(len(columns["label"]), frame_no, dtype=np.int64), **data}
+    return pd.DataFrame(data, copy=False)
