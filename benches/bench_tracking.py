@@ -3,7 +3,7 @@
 Trackers, each on the same seeded scenarios of ``tracking_scenario.py``:
 
 1. ``kalmanfield.BranchingTracker`` when the Rust class exists, otherwise the NumPy reference
-   ``kalmanfield.reference.tracking.branching.BranchingTracker`` (same keywords, ``TRACKER_CONFIG``);
+   ``kalmanfield.reference.tracking.branching.BranchingTracker`` (same ``TRACKER_CONFIG``);
    scored on the estimated positions of ``tracks()``, coasted frames included;
 2. trackpy ``link`` (+ ``filter_stubs``) on the detections, if trackpy is installed;
 3. Stone Soup GNN (``GNNWith2DAssignment``) and JPDA (``JPDAwithEHM``, exact JPDA with efficient
