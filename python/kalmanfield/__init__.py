@@ -8,6 +8,7 @@ from .ar_field_model import ARFieldModel
 from .branching_tracker import BranchingTracker
 from .denoise import denoise, estimate_noise_var, local_moments, model_from_noisy
 from .field_stream import FieldStream
+from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import AxisFit, IdentifiedModel, WhitenessTest, identify
 from .link import link
 from .product_field import sample_product_field
@@ -23,8 +24,11 @@ __all__ = [
     "AxisFit",
     "BranchingTracker",
     "FieldStream",
+    "IMMEstimator",
     "IdentifiedModel",
+    "LinearGaussianModel",
     "ScalarRowFilter",
+    "TypeIdentifier",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",

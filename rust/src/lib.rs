@@ -18,6 +18,7 @@ mod column_precision;
 pub mod difference_gram;
 pub mod error;
 pub mod field_model;
+pub mod filterbank;
 mod four_lanes;
 pub mod kalman;
 pub mod lag_products;
