@@ -4,15 +4,10 @@ through exp/log)."""
 
 import numpy as np
 import pytest
-from conftest import with_missed
+from filterbank_cases import simulate_batch, with_missed
 
 import kalmanfield as kf
 from kalmanfield.reference import filterbank as ref
-
-
-def simulate_batch(models, n_traj, n_frames, seed):
-    parts = [m.simulate(n_frames, n_traj, seed=seed + i)[1] for i, m in enumerate(models)]
-    return np.concatenate(parts)[:n_traj]
 
 
 @pytest.mark.parametrize("missed", [0.0, 0.15])
