@@ -241,6 +241,7 @@ def filterbank_check_model(
     p0: npt.NDArray[np.float64],
 ) -> _ModelArrays: ...
 
+@final
 class TypeIdentifier:
     def __new__(
         cls,
@@ -265,6 +266,7 @@ class TypeIdentifier:
     def state_bytes(self) -> bytes: ...
     def load_state(self, state: bytes) -> None: ...
 
+@final
 class IMMEstimator:
     def __new__(
         cls,

@@ -233,7 +233,8 @@ class LinearGaussianModel:
 
     def with_prior(self, x0: npt.ArrayLike, P0: npt.ArrayLike) -> LinearGaussianModel:  # noqa: N803
         """The same dynamics with another prior."""
-        return LinearGaussianModel(*self._arrays[:4], x0, P0, name=self.name)
+        f, q, h, r = self._arrays[:4]
+        return LinearGaussianModel(f, q, h, r, x0, P0, name=self.name)
 
     # ------------------------------------------------------------------ simulation
     def simulate(
