@@ -86,8 +86,8 @@ def test_bad_measurements_change_nothing(bank):
     infinite[0, 2, 1] = np.inf
     cases = [
         (z[..., :1], ValueError, "2 values per frame"),
-        (partly, ValueError, "partly NaN"),
-        (infinite, ValueError, "finite"),
+        (partly, ValueError, "trajectory 1, frame 4 is partly NaN"),
+        (infinite, ValueError, "infinite"),
         (z * 1e200, ValueError, "1e150"),
         (z[:2], ValueError, "follows 3 trajectories"),
         (z[0], ValueError, "follows a batch"),

@@ -89,6 +89,34 @@ impl DecisionRule {
     }
 }
 
+impl DecisionRule {
+    /// [`DecisionRule::decide`] for L trajectories at once; `ll[i][l]` is lane l's L_i.
+    #[inline(always)]
+    pub(crate) fn decide_lanes<const L: usize>(&self, decisions: &mut [i64; L], ll: &[[f64; L]]) {
+        match self {
+            Self::MaxPosterior { log_priors } => {
+                let mut best = [f64::NEG_INFINITY; L];
+                let mut index = [0i64; L];
+                for (i, (p, row)) in log_priors.iter().zip(ll).enumerate() {
+                    for l in 0..L {
+                        let v = p + row[l];
+                        if v > best[l] {
+                            best[l] = v;
+                            index[l] = i as i64;
+                        }
+                    }
+                }
+                *decisions = index;
+            }
+            Self::Sprt { .. } => {
+                for (l, d) in decisions.iter_mut().enumerate() {
+                    *d = self.decide(*d, |i| ll[i][l]);
+                }
+            }
+        }
+    }
+}
+
 /// The index of the first largest value (NaN never wins).
 #[inline(always)]
 fn argmax(values: impl Iterator<Item = f64>) -> i64 {

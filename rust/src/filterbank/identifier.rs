@@ -1,7 +1,7 @@
 //! The streaming type identifier: a batch of trajectories, K models, per-frame decisions.
 
 use super::decision::{normalised, DecisionRule};
-use super::lanes::{advance, Dynamics, Lane, Trajectory};
+use super::lanes::{advance, Dynamics, Lane, Trajectory, LANES};
 use super::model::{bank_measurement_dim, BankModel};
 use super::schedule::{schedule, Schedule};
 use super::validation::observed_rows;
@@ -11,8 +11,6 @@ use rayon::prelude::*;
 
 /// Trajectories per parallel task (a multiple of the lane width).
 const CHUNK: usize = 64;
-/// Trajectories advanced together by the lane kernel.
-const LANES: usize = 8;
 
 /// What a run returns.
 #[derive(Clone, Debug, PartialEq)]
@@ -104,7 +102,7 @@ impl TypeIdentifier {
     ) -> Result<RunOutput> {
         let (m, k) = (self.m, self.models.len());
         self.check_batch(z, n_traj, n_frames)?;
-        let observed = observed_rows(z, m)?;
+        let observed = observed_rows(z, m, n_frames)?;
         let mut states = if self.trajectories.is_empty() {
             vec![self.fresh_trajectory(); n_traj]
         } else {
@@ -177,7 +175,7 @@ impl TypeIdentifier {
         Ok(())
     }
 
-    /// One parallel task: the trajectories of a chunk, the shared ones eight at a time.
+    /// One parallel task: the trajectories of a chunk, the shared ones [`LANES`] at a time.
     #[allow(clippy::too_many_arguments)]
     fn run_chunk(
         &self,

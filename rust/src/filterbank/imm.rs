@@ -131,7 +131,7 @@ impl ImmEstimator {
                 "measurements must hold n_trajectories × n_frames × {m} values"
             )));
         }
-        let observed = observed_rows(z, m)?;
+        let observed = observed_rows(z, m, n_frames)?;
         let mut states = if self.trajectories.is_empty() {
             vec![self.fresh_trajectory(); n_traj]
         } else {

@@ -1,27 +1,48 @@
 //! The hot kernel: the means and log-likelihoods of L trajectories that share a schedule,
 //! advanced together frame by frame, lane by lane (the arithmetic of each lane is the same
 //! whatever L, so a trajectory gives the same bits alone or in a group). Compiled for AVX2
-//! where the CPU has it (no fused multiply-add: the bits do not depend on the CPU).
+//! and FMA where the CPU has them; every multiply-add is fused (`mul_add`, one rounding), so
+//! the bits do not depend on the CPU either.
 
 use super::decision::DecisionRule;
 use super::schedule::Schedule;
 use crate::kalman::LinearGaussian;
 
-/// The constant part of a model for the kernel: the non-zero entries of F and H.
+/// A sparse matrix by rows: row i holds `entries[rows[i]..rows[i + 1]]`, (column, value).
+#[derive(Clone, Debug)]
+pub(crate) struct SparseRows {
+    rows: Vec<usize>,
+    entries: Vec<(usize, f64)>,
+}
+
+impl SparseRows {
+    fn new(a: &nalgebra::DMatrix<f64>) -> Self {
+        let mut rows = vec![0];
+        let mut entries = Vec::new();
+        for i in 0..a.nrows() {
+            entries.extend(
+                (0..a.ncols())
+                    .filter(|&j| a[(i, j)] != 0.0)
+                    .map(|j| (j, a[(i, j)])),
+            );
+            rows.push(entries.len());
+        }
+        Self { rows, entries }
+    }
+
+    #[inline(always)]
+    fn row(&self, i: usize) -> &[(usize, f64)] {
+        &self.entries[self.rows[i]..self.rows[i + 1]]
+    }
+}
+
+/// The constant part of a model for the kernel: F and H by their non-zero entries.
 #[derive(Clone, Debug)]
 pub(crate) struct Dynamics {
     pub n: usize,
     pub m: usize,
-    f: Vec<(usize, usize, f64)>,
-    h: Vec<(usize, usize, f64)>,
-}
-
-fn nonzero(a: &nalgebra::DMatrix<f64>) -> Vec<(usize, usize, f64)> {
-    (0..a.nrows())
-        .flat_map(|i| (0..a.ncols()).map(move |j| (i, j)))
-        .filter(|&(i, j)| a[(i, j)] != 0.0)
-        .map(|(i, j)| (i, j, a[(i, j)]))
-        .collect()
+    f: SparseRows,
+    h: SparseRows,
 }
 
 impl Dynamics {
@@ -29,8 +50,8 @@ impl Dynamics {
         Self {
             n: model.state_dim(),
             m: model.measurement_dim(),
-            f: nonzero(&model.f),
-            h: nonzero(&model.h),
+            f: SparseRows::new(&model.f),
+            h: SparseRows::new(&model.h),
         }
     }
 }
@@ -57,6 +78,9 @@ pub(crate) struct Lane<'a> {
     pub log_lik: Option<&'a mut [f64]>,
 }
 
+/// Trajectories advanced together by the lane kernel.
+pub(crate) const LANES: usize = 16;
+
 /// Advances `lanes` (L of them, one schedule per model shared by all) over the schedules'
 /// frames.
 pub(crate) fn advance<const L: usize>(
@@ -68,14 +92,14 @@ pub(crate) fn advance<const L: usize>(
     assert_eq!(lanes.len(), L);
     #[cfg(target_arch = "x86_64")]
     if crate::banded::fused_available() {
-        // SAFETY: the CPU has AVX2.
+        // SAFETY: the CPU has FMA and AVX2.
         return unsafe { advance_avx2::<L>(dynamics, schedules, rule, lanes) };
     }
     advance_lanes::<L>(dynamics, schedules, rule, lanes)
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "fma,avx2")]
 unsafe fn advance_avx2<const L: usize>(
     dynamics: &[Dynamics],
     schedules: &[&Schedule],
@@ -83,6 +107,13 @@ unsafe fn advance_avx2<const L: usize>(
     lanes: &mut [Lane<'_>],
 ) {
     advance_lanes::<L>(dynamics, schedules, rule, lanes)
+}
+
+/// `acc + f x`, lane by lane, fused (one rounding: the same bits with or without FMA
+/// instructions).
+#[inline(always)]
+fn add_scaled<const L: usize>(acc: [f64; L], f: f64, x: &[f64; L]) -> [f64; L] {
+    std::array::from_fn(|l| f.mul_add(x[l], acc[l]))
 }
 
 #[inline(always)]
@@ -100,6 +131,8 @@ fn advance_lanes<const L: usize>(
     let mut x = vec![[0.0f64; L]; total];
     let mut ll = vec![[0.0f64; L]; k_models];
     let mut decision = [0i64; L];
+    // the measurements lane by lane: z[t m + a][l]
+    let mut z = vec![[0.0f64; L]; frames * m];
     for (l, lane) in lanes.iter().enumerate() {
         for (i, v) in lane.state.means.iter().enumerate() {
             x[i][l] = *v;
@@ -108,6 +141,9 @@ fn advance_lanes<const L: usize>(
             ll[i][l] = *v;
         }
         decision[l] = lane.state.decision;
+        for (row, v) in z.iter_mut().zip(lane.z) {
+            row[l] = *v;
+        }
     }
     let mut xp = vec![[0.0f64; L]; max_n];
     let mut nu = vec![[0.0f64; L]; m];
@@ -116,46 +152,43 @@ fn advance_lanes<const L: usize>(
         for (k, (d, s)) in dynamics.iter().zip(schedules).enumerate() {
             let xs = &mut x[offset..offset + d.n];
             offset += d.n;
-            xp[..d.n].iter_mut().for_each(|v| *v = [0.0; L]);
-            for &(i, j, f) in &d.f {
-                for l in 0..L {
-                    xp[i][l] += f * xs[j][l];
-                }
+            for (i, p) in xp[..d.n].iter_mut().enumerate() {
+                *p =
+                    d.f.row(i)
+                        .iter()
+                        .fold([0.0; L], |acc, &(j, f)| add_scaled(acc, f, &xs[j]));
             }
-            xs.copy_from_slice(&xp[..d.n]);
             if !s.observed[t] {
+                xs.copy_from_slice(&xp[..d.n]);
                 continue;
             }
-            for (a, row) in nu.iter_mut().enumerate() {
-                for (l, lane) in lanes.iter().enumerate() {
-                    row[l] = lane.z[t * m + a];
-                }
-            }
-            for &(a, j, h) in &d.h {
-                for l in 0..L {
-                    nu[a][l] -= h * xp[j][l];
-                }
+            for (a, v) in nu.iter_mut().enumerate() {
+                *v =
+                    d.h.row(a)
+                        .iter()
+                        .fold(z[t * m + a], |acc, &(j, h)| add_scaled(acc, -h, &xp[j]));
             }
             let gains = &s.gain[t * s.gain_pattern.len()..];
-            for (&(i, a), &g) in s.gain_pattern.iter().zip(gains) {
-                for l in 0..L {
-                    xs[i][l] += g * nu[a][l];
+            let mut p = 0;
+            for (i, xi) in xs.iter_mut().enumerate() {
+                let mut acc = xp[i];
+                while p < s.gain_pattern.len() && s.gain_pattern[p].0 == i {
+                    acc = add_scaled(acc, gains[p], &nu[s.gain_pattern[p].1]);
+                    p += 1;
                 }
+                *xi = acc;
             }
             let precisions = &s.precision[t * s.precision_pattern.len()..];
             let mut quad = [0.0f64; L];
-            for (&(a, b), &p) in s.precision_pattern.iter().zip(precisions) {
-                for l in 0..L {
-                    quad[l] += p * (nu[a][l] * nu[b][l]);
-                }
+            for (&(a, b), &w) in s.precision_pattern.iter().zip(precisions) {
+                let weighted: [f64; L] = std::array::from_fn(|l| w * nu[a][l]);
+                quad = std::array::from_fn(|l| weighted[l].mul_add(nu[b][l], quad[l]));
             }
             let c = s.offset[t];
-            for l in 0..L {
-                ll[k][l] += -0.5 * (quad[l] + c);
-            }
+            ll[k] = std::array::from_fn(|l| (-0.5f64).mul_add(quad[l] + c, ll[k][l]));
         }
+        rule.decide_lanes(&mut decision, &ll);
         for (l, lane) in lanes.iter_mut().enumerate() {
-            decision[l] = rule.decide(decision[l], |i| ll[i][l]);
             lane.decisions[t] = decision[l];
             if let Some(out) = lane.log_lik.as_deref_mut() {
                 for (i, row) in ll.iter().enumerate() {

@@ -7,7 +7,7 @@
 //! two types Wald's sequential probability-ratio test. Batches of trajectories run at once:
 //! without missed frames the covariance recursion does not depend on the data, so the gains of
 //! every frame are computed once per model ([`schedule`]) and shared by all trajectories,
-//! whose means are updated eight at a time ([`lanes`]); a trajectory with a missed frame gets
+//! whose means are updated sixteen at a time ([`lanes`]); a trajectory with a missed frame gets
 //! its own covariances. Every trajectory's result depends on its own data only, bit for bit,
 //! whatever the batch and the thread count.
 

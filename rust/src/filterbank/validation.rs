@@ -6,9 +6,17 @@ use crate::error::{FieldError, Result};
 /// squares leave float64.
 pub const MAX_MEASUREMENT: f64 = 1e150;
 
-/// Per row of m values: true when observed, false when every value is NaN; an error for a
-/// partly NaN row, an infinite value or one beyond ±[`MAX_MEASUREMENT`].
-pub(crate) fn observed_rows(z: &[f64], m: usize) -> Result<Vec<bool>> {
+/// Per row of m values (rows: trajectory after trajectory, `n_frames` each): true when
+/// observed, false when every value is NaN; an error for a partly NaN row, an infinite
+/// value or one beyond ±[`MAX_MEASUREMENT`].
+pub(crate) fn observed_rows(z: &[f64], m: usize, n_frames: usize) -> Result<Vec<bool>> {
+    // the common case in one vectorisable pass: no NaN, nothing too large
+    if z.iter()
+        .fold(true, |ok, v| ok & (v.abs() <= MAX_MEASUREMENT))
+    {
+        return Ok(vec![true; z.len() / m]);
+    }
+    let place = |row: usize| (row / n_frames.max(1), row % n_frames.max(1));
     z.chunks_exact(m)
         .enumerate()
         .map(|(row, values)| {
@@ -17,13 +25,17 @@ pub(crate) fn observed_rows(z: &[f64], m: usize) -> Result<Vec<bool>> {
                 return Ok(false);
             }
             if missing > 0 {
+                let (t, f) = place(row);
                 return Err(FieldError::NonFinite(format!(
-                    "measurement row {row} is partly NaN: a missed frame is a row of NaN only"
+                    "the measurement of trajectory {t}, frame {f} is partly NaN: a missed \
+                     frame is a row of NaN only"
                 )));
             }
             if values.iter().any(|v| v.abs() > MAX_MEASUREMENT) {
+                let (t, f) = place(row);
                 return Err(FieldError::NonFinite(format!(
-                    "measurement row {row} holds an infinite value or one beyond ±1e150"
+                    "the measurement of trajectory {t}, frame {f} is infinite or beyond \
+                     ±1e150 (rescale the data)"
                 )));
             }
             Ok(true)
