@@ -73,9 +73,9 @@ class TypeIdentifier:
     >>> import kalmanfield as kf
     >>> calm = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.95, sigma=1.0, name="calm")
     >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.8, sigma_a=0.5, name="agile")
-    >>> _, z = agile.simulate(60, seed=1)
+    >>> _, z = agile.simulate(60, seed=1, start=[0, 1, 0, 0, -1, 0])
     >>> ident = kf.TypeIdentifier([calm, agile])
-    >>> ident.run(z)[-1], ident.names[ident.decision]
+    >>> int(ident.run(z)[-1]), ident.names[ident.decision]
     (1, 'agile')
     """
 

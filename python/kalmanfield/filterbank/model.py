@@ -238,13 +238,22 @@ class LinearGaussianModel:
 
     # ------------------------------------------------------------------ simulation
     def simulate(
-        self, n_frames: int, n_trajectories: int | None = None, seed: SeedLike = 0
+        self,
+        n_frames: int,
+        n_trajectories: int | None = None,
+        seed: SeedLike = 0,
+        *,
+        start: npt.ArrayLike | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(states, measurements) of the model: x(0) ~ N(x0, P0), then n_frames frames.
+        """(states, measurements) of the model over ``n_frames`` frames.
 
-        Shapes (n_frames, n) and (n_frames, m), or with a leading ``n_trajectories`` axis.
-        The noises are drawn by NumPy's PCG64 from ``seed`` (square roots of the
-        covariances by symmetric eigendecomposition, so semi-definite ones are fine).
+        The state before the first frame is ``start`` (a fixed (n,) vector) or, by default,
+        drawn from the prior N(x0, P0) — which for the motion models' diffuse default prior
+        means velocities of hundreds of measurement stds: give ``start`` (or a prior) for
+        realistic objects. Shapes (n_frames, n) and (n_frames, m), or with a leading
+        ``n_trajectories`` axis. The noises are drawn by NumPy's PCG64 from ``seed``
+        (square roots of the covariances by symmetric eigendecomposition, so semi-definite
+        ones are fine).
         """
         frames = nonnegative_int(n_frames, "n_frames")
         b = 1 if n_trajectories is None else positive_int(n_trajectories, "n_trajectories")
@@ -252,7 +261,13 @@ class LinearGaussianModel:
         f, q, h, r, x0, p0 = self._arrays
         roots = [_root(p0), _root(q), _root(r)]
         n, m = self.state_dim, self.measurement_dim
-        x = x0 + rng.standard_normal((b, n)) @ roots[0].T
+        if start is None:
+            x = x0 + rng.standard_normal((b, n)) @ roots[0].T
+        else:
+            first = _matrix(start, "start", 1)
+            if first.shape != (n,) or not np.isfinite(first).all():
+                raise ValueError(f"start must be {n} finite values, got {first}")
+            x = np.tile(first, (b, 1))
         states, z = np.empty((b, frames, n)), np.empty((b, frames, m))
         for t in range(frames):
             x = x @ f.T + rng.standard_normal((b, n)) @ roots[1].T
