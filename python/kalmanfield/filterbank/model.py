@@ -32,6 +32,15 @@ def _matrix(value: npt.ArrayLike, name: str, ndim: int) -> np.ndarray:
     return a
 
 
+def _axes(dt: float, ndim: int, measurement_std: float) -> tuple[float, int, float]:
+    """The checked (dt, ndim, measurement_std) of a motion model."""
+    return (
+        positive_float(dt, "dt"),
+        positive_int(ndim, "ndim"),
+        positive_float(measurement_std, "measurement_std"),
+    )
+
+
 def _diffuse_prior(per_axis: list[float], ndim: int) -> tuple[np.ndarray, np.ndarray]:
     variances = np.tile(np.asarray(per_axis, dtype=float) ** 2, ndim)
     return np.zeros(len(variances)), np.diag(variances)
@@ -107,8 +116,7 @@ class LinearGaussianModel:
         F = [[1, T], [0, 1]], Q = q [[T³/3, T²/2], [T²/2, T]] per axis; positions observed
         with noise std ``measurement_std``. Default prior: diffuse (std 1000 measurement
         stds for positions, per frame for velocities)."""
-        dt, sz = positive_float(dt, "dt"), positive_float(measurement_std, "measurement_std")
-        ndim = positive_int(ndim, "ndim")
+        dt, ndim, sz = _axes(dt, ndim, measurement_std)
         f, qm, h, r = _core.kalman_constant_velocity(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt], ndim)
         return cls._built(f, qm, h, r, x0, P0, default, name)
@@ -127,8 +135,7 @@ class LinearGaussianModel:
     ) -> LinearGaussianModel:
         """Constant acceleration, continuous white jerk of spectral density ``q`` (F and Q on
         the method page). Default prior: diffuse."""
-        dt, sz = positive_float(dt, "dt"), positive_float(measurement_std, "measurement_std")
-        ndim = positive_int(ndim, "ndim")
+        dt, ndim, sz = _axes(dt, ndim, measurement_std)
         f, qm, h, r = _core.kalman_constant_acceleration(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt, DIFFUSE * sz / dt**2], ndim)
         return cls._built(f, qm, h, r, x0, P0, default, name)
@@ -150,8 +157,7 @@ class LinearGaussianModel:
         correlation ``rho`` per frame and stationary std ``sigma_a``;
         F = [[1, T, T²/2], [0, 1, T], [0, 0, ρ]], Q = diag(0, 0, σ_a²(1 − ρ²)) per axis.
         Default prior: diffuse position and velocity, stationary acceleration (std σ_a)."""
-        dt, sz = positive_float(dt, "dt"), positive_float(measurement_std, "measurement_std")
-        ndim = positive_int(ndim, "ndim")
+        dt, ndim, sz = _axes(dt, ndim, measurement_std)
         rho, sigma_a = real_number(rho, "rho"), real_number(sigma_a, "sigma_a")
         f, qm, h, r = _core.kalman_singer(dt, rho, sigma_a, ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt, sigma_a], ndim)
@@ -173,8 +179,7 @@ class LinearGaussianModel:
         """Velocity a first-order Markov sequence with correlation ``rho`` per frame and
         stationary std ``sigma``: F = [[1, T], [0, ρ]], Q = diag(0, σ²(1 − ρ²)) per axis.
         Default prior: diffuse position, stationary velocity (std σ)."""
-        dt, sz = positive_float(dt, "dt"), positive_float(measurement_std, "measurement_std")
-        ndim = positive_int(ndim, "ndim")
+        dt, ndim, sz = _axes(dt, ndim, measurement_std)
         rho, sigma = real_number(rho, "rho"), real_number(sigma, "sigma")
         f, qm, h, r = _core.kalman_markov_velocity(dt, rho, sigma, ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, sigma], ndim)

@@ -4,8 +4,8 @@ use super::decision::{normalised, DecisionRule};
 use super::lanes::{advance, Dynamics, Lane, Trajectory, LANES};
 use super::model::{bank_measurement_dim, BankModel};
 use super::schedule::{schedule, Schedule};
-use super::validation::observed_rows;
-use crate::error::{FieldError, Result};
+use super::validation::checked_batch;
+use crate::error::Result;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
@@ -101,8 +101,7 @@ impl TypeIdentifier {
         keep_log_likelihoods: bool,
     ) -> Result<RunOutput> {
         let (m, k) = (self.m, self.models.len());
-        self.check_batch(z, n_traj, n_frames)?;
-        let observed = observed_rows(z, m, n_frames)?;
+        let observed = checked_batch(z, n_traj, n_frames, m, self.trajectories.len())?;
         let mut states = if self.trajectories.is_empty() {
             vec![self.fresh_trajectory(); n_traj]
         } else {
@@ -151,30 +150,6 @@ impl TypeIdentifier {
         })
     }
 
-    fn check_batch(&self, z: &[f64], n_traj: usize, n_frames: usize) -> Result<()> {
-        if n_traj == 0 {
-            return Err(FieldError::Shape(
-                "a batch needs at least one trajectory".into(),
-            ));
-        }
-        if !self.trajectories.is_empty() && n_traj != self.trajectories.len() {
-            return Err(FieldError::Shape(format!(
-                "this identifier follows {} trajectories, got {n_traj}",
-                self.trajectories.len()
-            )));
-        }
-        let expected = n_traj
-            .checked_mul(n_frames)
-            .and_then(|v| v.checked_mul(self.m));
-        if expected != Some(z.len()) {
-            return Err(FieldError::Shape(format!(
-                "measurements must hold n_trajectories × n_frames × {} values",
-                self.m
-            )));
-        }
-        Ok(())
-    }
-
     /// One parallel task: the trajectories of a chunk, the shared ones [`LANES`] at a time.
     #[allow(clippy::too_many_arguments)]
     fn run_chunk(
@@ -184,11 +159,11 @@ impl TypeIdentifier {
         decisions: &mut [i64],
         z: &[f64],
         observed: &[bool],
-        mut log_lik: Option<&mut [f64]>,
+        log_lik: Option<&mut [f64]>,
         n_frames: usize,
     ) -> Result<()> {
         let (m, k) = (self.m, self.models.len());
-        let mut ll_rows: Vec<Option<&mut [f64]>> = match log_lik.as_deref_mut() {
+        let mut ll_rows: Vec<Option<&mut [f64]>> = match log_lik {
             Some(out) => out.chunks_mut((n_frames * k).max(1)).map(Some).collect(),
             None => (0..states.len()).map(|_| None).collect(),
         };

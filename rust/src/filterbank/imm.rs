@@ -7,7 +7,7 @@
 use super::decision::normalised;
 use super::model::{bank_measurement_dim, BankModel};
 use super::probabilities::check_probabilities;
-use super::validation::observed_rows;
+use super::validation::checked_batch;
 use crate::error::{FieldError, Result};
 use crate::kalman::{predict, update, Gaussian};
 use nalgebra::{DMatrix, DVector};
@@ -115,23 +115,7 @@ impl ImmEstimator {
     /// nothing changes.
     pub fn run(&mut self, z: &[f64], n_traj: usize, n_frames: usize) -> Result<ImmOutput> {
         let (n, m, k) = (self.n, self.m, self.models.len());
-        if n_traj == 0 {
-            return Err(FieldError::Shape(
-                "a batch needs at least one trajectory".into(),
-            ));
-        }
-        if !self.trajectories.is_empty() && n_traj != self.trajectories.len() {
-            return Err(FieldError::Shape(format!(
-                "this estimator follows {} trajectories, got {n_traj}",
-                self.trajectories.len()
-            )));
-        }
-        if n_traj.checked_mul(n_frames).and_then(|v| v.checked_mul(m)) != Some(z.len()) {
-            return Err(FieldError::Shape(format!(
-                "measurements must hold n_trajectories × n_frames × {m} values"
-            )));
-        }
-        let observed = observed_rows(z, m, n_frames)?;
+        let observed = checked_batch(z, n_traj, n_frames, m, self.trajectories.len())?;
         let mut states = if self.trajectories.is_empty() {
             vec![self.fresh_trajectory(); n_traj]
         } else {

@@ -194,6 +194,8 @@ pub struct PyImmEstimator {
     inner: ImmEstimator,
 }
 
+type Combined<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray3<f64>>);
+
 type ImmRun<'py> = (
     Bound<'py, PyArray3<f64>>,
     Bound<'py, PyArray3<f64>>,
@@ -243,10 +245,7 @@ impl PyImmEstimator {
     }
 
     /// Combined estimates: means (n_traj, n), covariances (n_traj, n, n).
-    fn combined<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray3<f64>>)> {
+    fn combined<'py>(&self, py: Python<'py>) -> PyResult<Combined<'py>> {
         let (means, covs) = self.inner.combined();
         let n = self.inner.state_dim();
         let n_traj = self.inner.n_trajectories();
