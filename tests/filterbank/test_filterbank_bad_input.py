@@ -4,9 +4,12 @@ failed call changes nothing."""
 import numpy as np
 import pandas as pd
 import pytest
+from filterbank_cases import four_types
 
 import kalmanfield as kf
 from kalmanfield import _core
+
+bank = pytest.fixture(four_types, name="bank")
 
 EYE2, H = np.eye(2), np.array([[1.0, 0.0]])
 GOOD = dict(F=EYE2, Q=EYE2, H=H, R=np.eye(1), x0=np.zeros(2), P0=EYE2)

@@ -5,10 +5,12 @@ error rates its thresholds promise."""
 
 import numpy as np
 import pytest
-from filterbank_cases import with_missed
+from filterbank_cases import four_types, with_missed
 
 import kalmanfield as kf
 from kalmanfield.reference.kalman import sequence_log_density
+
+bank = pytest.fixture(four_types, name="bank")
 
 
 @pytest.mark.parametrize("missed", [0.0, 0.3])

@@ -5,9 +5,12 @@ IMM resumes exactly where it stopped."""
 import pickle
 
 import numpy as np
-from filterbank_cases import simulate_batch, with_missed
+import pytest
+from filterbank_cases import four_types, simulate_batch, with_missed
 
 import kalmanfield as kf
+
+bank = pytest.fixture(four_types, name="bank")
 
 TRANSITION = [[0.9, 0.1], [0.2, 0.8]]
 

@@ -3,8 +3,12 @@ each particle's trajectory alone (skipped frames as missed ones)."""
 
 import numpy as np
 import pandas as pd
+import pytest
+from filterbank_cases import four_types
 
 import kalmanfield as kf
+
+bank = pytest.fixture(four_types, name="bank")
 
 
 def test_one_row_per_particle_as_run_alone(bank):

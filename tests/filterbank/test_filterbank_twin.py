@@ -4,10 +4,12 @@ through exp/log)."""
 
 import numpy as np
 import pytest
-from filterbank_cases import simulate_batch, with_missed
+from filterbank_cases import four_types, simulate_batch, with_missed
 
 import kalmanfield as kf
 from kalmanfield.reference import filterbank as ref
+
+bank = pytest.fixture(four_types, name="bank")
 
 
 @pytest.mark.parametrize("missed", [0.0, 0.15])
