@@ -112,8 +112,13 @@ unsafe fn advance_avx2<const L: usize>(
 /// `acc + f x`, lane by lane, fused (one rounding: the same bits with or without FMA
 /// instructions).
 #[inline(always)]
-fn add_scaled<const L: usize>(acc: [f64; L], f: f64, x: &[f64; L]) -> [f64; L] {
-    std::array::from_fn(|l| f.mul_add(x[l], acc[l]))
+fn add_scaled<const L: usize>(mut acc: [f64; L], f: f64, x: &[f64; L]) -> [f64; L] {
+    // plain loops, not `array::from_fn`: its closure was left out of line, without the
+    // FMA instructions of the caller (a library call per lane)
+    for l in 0..L {
+        acc[l] = f.mul_add(x[l], acc[l]);
+    }
+    acc
 }
 
 #[inline(always)]
@@ -181,11 +186,14 @@ fn advance_lanes<const L: usize>(
             let precisions = &s.precision[t * s.precision_pattern.len()..];
             let mut quad = [0.0f64; L];
             for (&(a, b), &w) in s.precision_pattern.iter().zip(precisions) {
-                let weighted: [f64; L] = std::array::from_fn(|l| w * nu[a][l]);
-                quad = std::array::from_fn(|l| weighted[l].mul_add(nu[b][l], quad[l]));
+                for l in 0..L {
+                    quad[l] = (w * nu[a][l]).mul_add(nu[b][l], quad[l]);
+                }
             }
             let c = s.offset[t];
-            ll[k] = std::array::from_fn(|l| (-0.5f64).mul_add(quad[l] + c, ll[k][l]));
+            for l in 0..L {
+                ll[k][l] = (-0.5f64).mul_add(quad[l] + c, ll[k][l]);
+            }
         }
         rule.decide_lanes(&mut decision, &ll);
         for (l, lane) in lanes.iter_mut().enumerate() {
