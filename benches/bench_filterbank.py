@@ -164,7 +164,11 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    return f"{model}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return (
+        f"{model}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"load average {load:.1f} at the start (other jobs share the cores)"
+    )
 
 
 def speed(n_traj: int, frames: int, repeats: int) -> tuple[list[str], float]:
@@ -279,6 +283,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.trajectories, args.frames, args.repeats, args.runs = 64, 12, 1, 20
+    host = machine()
     speed_lines, ratio = speed(args.trajectories, args.frames, args.repeats)
     print("\n".join(speed_lines))
     claim_lines = claims(args.runs, args.frames)
@@ -290,7 +295,7 @@ def main() -> None:
     page = [
         "# Benchmark: Kalman filter bank",
         "",
-        f"Written by `benches/bench_filterbank.py` on {today}; machine: {machine()}. "
+        f"Written by `benches/bench_filterbank.py` on {today}; machine: {host}. "
         "Timings vary up to 2× between runs on this shared VM: compare within one run.",
         "",
         "## Speed",
