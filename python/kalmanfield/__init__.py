@@ -10,6 +10,7 @@ here at the top level. The method pages of the documentation give the formulas a
 from . import _compat
 from .denoising import denoise, estimate_noise_var, local_moments
 from .field import ARFieldModel, FieldStream, sample_product_field
+from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import (
     AxisFit,
     IdentifiedModel,
@@ -28,9 +29,12 @@ __all__ = [
     "AxisFit",
     "BranchingTracker",
     "FieldStream",
+    "IMMEstimator",
     "IdentifiedModel",
+    "LinearGaussianModel",
     "ScalarRowFilter",
     "TrackerConfig",
+    "TypeIdentifier",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",

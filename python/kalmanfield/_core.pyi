@@ -162,3 +162,99 @@ class BranchingTracker:
     def n_nodes(self) -> int: ...
     def state_bytes(self) -> bytes: ...
     def load_state(self, state: bytes) -> None: ...
+
+# ---- kalman: generic linear-Gaussian recursions (method page "Kalman filter bank")
+_Matrices = tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]
+
+def kalman_constant_velocity(
+    dt: float, q: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_constant_acceleration(
+    dt: float, q: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_singer(
+    dt: float, rho: float, sigma_a: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_markov_velocity(
+    dt: float, rho: float, sigma: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_filter(
+    f: npt.NDArray[np.float64],
+    q: npt.NDArray[np.float64],
+    h: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    mean: npt.NDArray[np.float64],
+    cov: npt.NDArray[np.float64],
+    measurements: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+# ---- filterbank: type identification by a bank of Kalman filters, IMM
+MAX_MEASUREMENT: float
+
+_ModelArrays = tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]
+
+def filterbank_check_model(
+    f: npt.NDArray[np.float64],
+    q: npt.NDArray[np.float64],
+    h: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    x0: npt.NDArray[np.float64],
+    p0: npt.NDArray[np.float64],
+) -> _ModelArrays: ...
+
+@final
+class TypeIdentifier:
+    def __new__(
+        cls,
+        models: list[_ModelArrays] | list[tuple[np.ndarray, ...]],
+        priors: list[float],
+        alpha: float | None = None,
+        beta: float | None = None,
+    ) -> TypeIdentifier: ...
+    def run(
+        self,
+        measurements: npt.NDArray[np.float64],
+        log_likelihoods: bool = False,
+        threads: int | None = None,
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64] | None]: ...
+    def log_likelihoods(self) -> npt.NDArray[np.float64]: ...
+    def posterior(self) -> npt.NDArray[np.float64]: ...
+    def decisions(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def n_trajectories(self) -> int: ...
+    @property
+    def frame(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    def load_state(self, state: bytes) -> None: ...
+
+@final
+class IMMEstimator:
+    def __new__(
+        cls,
+        models: list[_ModelArrays] | list[tuple[np.ndarray, ...]],
+        transition: npt.NDArray[np.float64],
+        mu: list[float],
+    ) -> IMMEstimator: ...
+    def run(
+        self, measurements: npt.NDArray[np.float64], threads: int | None = None
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def combined(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def mode_probabilities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def n_trajectories(self) -> int: ...
+    @property
+    def frame(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    def load_state(self, state: bytes) -> None: ...

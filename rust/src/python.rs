@@ -26,6 +26,8 @@ use pyo3::exceptions::{PyMemoryError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 mod branching;
+mod filterbank;
+mod kalman;
 mod segment;
 
 pyo3::create_exception!(
@@ -692,6 +694,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyVectorRowFilter>()?;
     m.add_class::<PyScalarRowFilter>()?;
     branching::register(m)?;
+    kalman::register(m)?;
+    filterbank::register(m)?;
     segment::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
