@@ -1,9 +1,10 @@
-"""Benchmark of ``kf.identify`` (SPEC §1.6): accuracy on simulated fields, real images, speed.
+"""Benchmark of ``kf.identify`` (method page *Identification*, §1.6): accuracy on simulated fields,
+real images, speed.
 
 1. Accuracy: fields of ``ARFieldModel([ρ, ρ], [n, n])`` on a 256² grid, n = 1..4,
    ρ ∈ {0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98}; both axes of every field are scored. Reported:
    the rate of correct multiplicity, the confusion of n for ρ ≥ 0.8, and the relative bias
-   and RMSE of ρ̂ — for ``identify`` and for the source's route (SPEC §1.6 (2)): a 1-D
+   and RMSE of ρ̂ — for ``identify`` and for the source's route (§1.6 (2)): a 1-D
    Yule–Walker AR(n) fit on the pooled axis autocovariance, given the true n, and
    ρ = α_1 / n (the i = 1 term of ρ = (α_i / ((-1)^{i+1} C(n,i)))^{1/i}; the higher terms
    are even less stable).
@@ -38,7 +39,7 @@ OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_identif
 
 
 def source_rho(field: np.ndarray, axis: int, n: int) -> float:
-    """ρ from the fitted AR(n) coefficients, the source's route (SPEC §1.6 (2))."""
+    """ρ from the fitted AR(n) coefficients, the source's route (§1.6 (2))."""
     sums, counts = _core.lag_products(field - field.mean(), axis, n)
     c = sums / counts
     toeplitz = np.array([[c[abs(i - j)] for j in range(n)] for i in range(n)])

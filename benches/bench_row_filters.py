@@ -1,16 +1,17 @@
-"""Benchmark of the row Kalman filters (SPEC §2): exact losses, speed, real-image denoising.
+"""Benchmark of the row Kalman filters (method page *Row filters*, §2): exact losses, speed,
+real-image denoising.
 
 1. Loss table — exact mean MSEs, no Monte Carlo, on an H = W grid (48², ``--quick``: 32² and
    fewer cases) for (n_y, n_x) ∈ {(1,1), (2,2), (3,3), (4,4), (1,2), (2,1)},
    ρ_y = ρ_x ∈ {0.5, 0.8, 0.9, 0.95}, σ_x²/σ_θ² ∈ {0.1, 1, 10} (σ_x = 1):
-   - optimal causal: ``VectorRowFilter.error_variance(H).mean()`` (SPEC §2.1–2.2);
-   - scalar causal / smoothed: ``ScalarRowFilter`` (SPEC §2.3 generalised), exact MSE from
+   - optimal causal: ``VectorRowFilter.error_variance(H).mean()`` (§2.1–2.2);
+   - scalar causal / smoothed: ``ScalarRowFilter`` (§2.3 generalised), exact MSE from
      the filter run on the H·W orthonormal eigen-images of Cov(x) (white noise shares that
      basis); cross-checked in every run against ``reference.row_filters.linear_estimator_mse``
      (the filter run on 2·H·W basis images);
    - loss % = scalar causal / optimal causal − 1 (target ≤ 3 %);
    - gap % = scalar smoothed / ``wiener_bound`` − 1 (target ≤ 5 %);
-   - for (1,1): SPEC §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
+   - for (1,1): §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
 2. Speed, one thread unless stated, best of 3 (``time.perf_counter``), the per-height plan
    built by a warm-up call and not timed: ``ScalarRowFilter`` on 2048² for (1,1), (2,2),
    (3,3), (4,4), causal and smoothed, and for every (n_y, n_x) ≤ (4, 4); the NumPy
@@ -263,7 +264,7 @@ def loss_summary(results: list[dict]) -> list[str]:
         f"{worst(results, 'loss', LOSS_TARGET)}",
         f"- max smoothed gap (scalar smoothed vs Wiener bound): "
         f"{worst(results, 'gap', GAP_TARGET)}",
-        f"- max loss of SPEC §2.3's literal scheme ((1,1) only): "
+        f"- max loss of the source's literal scheme (§2.3, (1,1) only): "
         f"{worst(results, 'literal_loss', None)}",
         f"- `ScalarRowFilter.error_variance` (causal) against the optimal filter's map, "
         f"pixel by pixel: largest |ratio − 1| {max(r['map_gap'] for r in results):.2f} %; "

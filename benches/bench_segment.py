@@ -1,4 +1,4 @@
-"""Speed of ``kalmanfield.segment`` (SPEC §3) on tracker-benchmark frames.
+"""Speed of ``kalmanfield.segment`` (method page *Tracking*, §3) on tracker-benchmark frames.
 
 Frames: the scenario of ``tracking_scenario.py`` scaled to 512 × 512 px (50 targets, 200
 clutter points, ~245 detections per frame), rendered by ``tracking_frames.render`` as float32

@@ -1,4 +1,5 @@
-"""Anchor comparison of the branching tracker (SPEC §3.3) on the point-target scenario.
+"""Anchor comparison of the branching tracker (method page *Tracking*, §3.3) on the point-target
+scenario.
 
 Trackers, each on the same seeded scenarios of ``tracking_scenario.py``:
 

@@ -1,7 +1,7 @@
 """Study (not a library kernel): fit the band to the *filtered* covariance and predict exactly,
 the lead for the quasi-optimal filter's losses at high SNR (README, "High SNR").
 
-The quasi-optimal filter (SPEC §2.3 generalised) fits a block AR(m) along the row (a banded
+The quasi-optimal filter (§2.3 generalised) fits a block AR(m) along the row (a banded
 precision, the maximum-entropy completion of the band) to the prediction error P_e,t of the n_y
 rows in its state. At high SNR P_e,t = S P_f,t−1 Sᵀ + Q is the sum of a smooth part (the
 innovation Q, whose precision is banded) and a near-white part (the filtered error of the row
