@@ -119,6 +119,23 @@ def test_pictures_exist_and_are_small():
         assert png.stat().st_size < 200_000, f"{png.name} is {png.stat().st_size} bytes"
 
 
+#: pages whose ```python blocks must run, each page's blocks in order in one namespace
+CODE_PAGES = [ROOT / "README.md", DOCS / "getting_started.md", *sorted(DOCS.glob("guide/*.md"))]
+
+
+@pytest.mark.parametrize("page", CODE_PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_code_blocks_run(page, monkeypatch, tmp_path):
+    blocks = re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+    if not blocks:
+        pytest.skip("no Python block")
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    monkeypatch.chdir(tmp_path)
+    exec(compile("\n".join(blocks), str(page), "exec"), {"__name__": "__page__"})
+    plt = pytest.importorskip("matplotlib.pyplot")
+    plt.close("all")
+
+
 SPHINX = ("sphinx", "myst_parser", "numpydoc", "pydata_sphinx_theme")
 
 
