@@ -14,19 +14,19 @@ real images, speed.
    (``kalmanfield.reference.identification.kernels``) on the same image.
 
 Run: ``python benches/bench_identify.py [--quick]``; the Markdown report is printed and
-written to ``bench_out/bench_identify.md``.
+written to the benchmark page ``docs/benchmarks/identification.md`` (``--quick``: to
+``bench_out/identification.md``).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
+from bench_page import write_page
 
 import kalmanfield as kf
 from kalmanfield import _core
@@ -35,7 +35,6 @@ from kalmanfield.reference.identification import kernels as ref
 RHOS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98)
 ORDERS = (1, 2, 3, 4)
 SIZE = 256
-OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_identify.md"
 
 
 def source_rho(field: np.ndarray, axis: int, n: int) -> float:
@@ -168,16 +167,13 @@ def main() -> None:
     reps = 4 if args.quick else 25
     report = "\n\n".join(
         [
-            f"## identify benchmark ({platform.processor() or platform.machine()}, "
-            f"{os.cpu_count()} cores, Python {platform.python_version()})",
             accuracy(reps),
             real_images(),
             speed(1 if args.quick else 5),
         ]
     )
     print(report)
-    OUT_PATH.parent.mkdir(exist_ok=True)
-    OUT_PATH.write_text(report + "\n")
+    write_page("identification", "Benchmark: identification", report, full_run=not args.quick)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """Study (not a library kernel): a rank-r error model per column for the quasi-optimal row
-filter, the lead for the wide-band speed targets of issue 4 (README, "Speed target").
+filter, the lead for the wide-band speed targets of issue 4 (design notes, *Row filters: speed*).
 
 The quasi-optimal filter (§2.3 generalised) models the prediction error of all n_y rows
 of each column's state; its row system has n_y unknowns per column and half-bandwidth
