@@ -61,7 +61,7 @@ def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.nda
 
     Notes
     -----
-    O(1) work per pixel (running sums, Rust). Images whose largest |pixel| lies outside
+    O(1) work per pixel (running sums, Rust). Images whose largest absolute pixel lies outside
     [2⁻⁴⁰⁰, 2⁴⁰⁰] are scaled by a power of two (exact) for the sums of squares.
 
     Examples
@@ -132,7 +132,7 @@ def estimate_noise_var(image: npt.ArrayLike) -> float:
     Returns
     -------
     float
-        σ̂², pooled over the frames of a stack.
+        The estimate σ̂², pooled over the frames of a stack.
 
     Raises
     ------
@@ -192,7 +192,7 @@ def denoise(
         An image (H, W) or a stack (F, H, W); float64, float32, uint8 or uint16. NaN pixels
         are missing observations (``method="scalar"``), filled from their neighbours.
     noise_var : float, optional
-        σ_θ²; None estimates it (:func:`estimate_noise_var`).
+        The noise variance σ_θ²; None estimates it (:func:`estimate_noise_var`).
     model : ARFieldModel, optional
         Adaptive mode: the model of the normalised detail field ξ (default
         :data:`DETAIL_MODEL`, (1,1) with ρ = 0.7). Stationary mode: the model of x (default

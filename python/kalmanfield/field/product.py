@@ -65,7 +65,7 @@ def sample_product_field(
 
     Notes
     -----
-    O(1) work per element. For two axes the marginal density is K₀(|x|/σ²)/(πσ²) (§1.4 of
+    O(1) work per element. For two axes the marginal density is ``K₀(|x|/σ²)/(πσ²)`` (§1.4 of
     :doc:`/methods/random_fields`, with the source's missing 1/π restored).
 
     References

@@ -41,7 +41,7 @@ class WhitenessTest:
     pvalue : float
         P(χ²_L ≥ Q).
     residual_correlation : numpy.ndarray
-        r_1..r_L.
+        The residual's correlations r_1..r_L.
 
     See Also
     --------
@@ -79,7 +79,7 @@ class AxisFit:
     candidate_rho : numpy.ndarray
         The best ρ of each candidate.
     innovation_variance : numpy.ndarray
-        σ̂²_e of each candidate (the pooled one-step prediction error variance).
+        The σ̂²_e of each candidate (the pooled one-step prediction error variance).
     criterion : numpy.ndarray
         N ln σ̂²_e of each candidate (the least wins).
     pairs : int

@@ -22,7 +22,7 @@ def sample_correlation(
     *,
     estimator: Literal["unbiased", "biased"] = "unbiased",
 ) -> np.ndarray:
-    """Normalised sample correlation R̂(h̄) = Ĉ(h̄)/Ĉ(0̄) for every lag |h_k| ≤ L_k.
+    """Normalised sample correlation R̂(h̄) = Ĉ(h̄)/Ĉ(0̄) for every lag with ``|h_k| ≤ L_k``.
 
     Parameters
     ----------
