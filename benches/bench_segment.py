@@ -142,7 +142,7 @@ def main() -> None:
         t = seconds_per_frame(method, images, args.repeats)
         lines.append(f"| {name} | {1e3 * t:.3f} | {1 / t:,.0f} |")
     print("\n".join(lines))
-    write_page("segment", "Benchmark: segmentation", "\n".join(lines), full_run=True)
+    write_page("segment", "Benchmark: segmentation", "\n".join(lines), full_run=args.frames >= 50)
 
 
 if __name__ == "__main__":
