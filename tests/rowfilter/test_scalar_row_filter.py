@@ -223,8 +223,9 @@ def test_order_four_agrees_to_the_conditioning_of_the_row_basis():
 
 def test_order_four_at_high_correlation_stays_optimal_pixel_by_pixel():
     """(4,4) at ρ = 0.97 (outside the issue's grid): the Rust filter and its twin differ by
-    ~1e-4 here (the systems' conditioning, README), but the Rust filter's exact per-pixel
-    MSE map stays within 0.1 % of the optimal vector filter's everywhere, edges included."""
+    ~1e-4 here (the systems' conditioning, see the accuracy page), but the Rust filter's exact
+    per-pixel MSE map stays within 0.1 % of the optimal vector filter's everywhere, edges
+    included."""
     model = kf.ARFieldModel([0.97, 0.97], [4, 4])
     shape = (40, 120)
     mse = exact_mse_map(kf.ScalarRowFilter(model, 1.0, shape[1]), model, 1.0, shape)
