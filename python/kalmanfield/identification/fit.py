@@ -279,7 +279,7 @@ def identify(
 
     References
     ----------
-    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, §2.4 ([P] in :doc:`/references`).
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, section 2.4 ([P] in :doc:`/references`).
 
     Examples
     --------
