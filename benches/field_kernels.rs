@@ -84,7 +84,7 @@ fn bench_stream(c: &mut Criterion) {
     group.finish();
 }
 
-/// The identification statistics (SPEC §1.6) of a 2048² field, one thread, per axis.
+/// The identification statistics (§1.6) of a 2048² field, one thread, per axis.
 fn bench_identification(c: &mut Criterion) {
     let shape = [2048usize, 2048];
     let model = FieldModel::new(&[0.9, 0.8], &[2, 3], 1.0).unwrap();

@@ -1,4 +1,4 @@
-//! Criterion benchmarks of the row filters (SPEC §2): the quasi-optimal filter on 2048²,
+//! Criterion benchmarks of the row filters (method page *Row filters*, §2): the quasi-optimal filter on 2048²,
 //! the optimal one on 512², one thread, plans built outside the timing.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};

@@ -1,4 +1,4 @@
-"""A_τ of SPEC §1.5."""
+"""A_τ of method page *Random fields*, §1.5."""
 
 import numpy as np
 import pytest

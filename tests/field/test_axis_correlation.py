@@ -1,4 +1,5 @@
-"""R(k), β and the template against independent computations (SPEC §1.1–1.2)."""
+"""R(k), β and the template against independent computations (method page *Random fields*,
+§1.1–1.2)."""
 
 import numpy as np
 import pytest
@@ -115,7 +116,7 @@ def test_template_matches_reference_and_sign_convention():
     assert c.shape == (3, 4)
     np.testing.assert_allclose(c, ref.template(model.rho, model.order), rtol=1e-14)
     assert c[0, 0] == 1.0
-    # 8-point model: x = 2ρ x_{i-1} - ρ² x_{i-2} along one axis (SPEC §1.2 fix of [P 1.9])
+    # 8-point model: x = 2ρ x_{i-1} - ρ² x_{i-2} along one axis (§1.2 fix of [P 1.9])
     one = kf.ARFieldModel(0.9, 2).coefficients()
     np.testing.assert_allclose(-one[1:], [1.8, -0.81])
 

@@ -1,4 +1,5 @@
-"""The cascade generator (SPEC §1.2–1.3): reference twin, exact stationarity, seeds, dtypes."""
+"""The cascade generator (method page *Random fields*, §1.2–1.3): reference twin, exact
+stationarity, seeds, dtypes."""
 
 import numpy as np
 import pytest
@@ -145,7 +146,7 @@ def test_product_field_equals_reference_and_has_the_model_covariance():
     se = np.sqrt(9 * 1.5**4 / reps)
     assert np.abs(emp - want).max() < 5 * se
     kurtosis = np.mean(x[:, 4] ** 4) / np.mean(x[:, 4] ** 2) ** 2
-    assert kurtosis == pytest.approx(9.0, rel=0.15)  # non-Gaussian, as SPEC §1.4 says
+    assert kurtosis == pytest.approx(9.0, rel=0.15)  # non-Gaussian, as §1.4 says
 
 
 def test_product_field_threads_and_dtype():

@@ -1,4 +1,5 @@
-"""FieldStream (SPEC §1.4): stationary from frame 0, equal to one-shot sampling, resumable."""
+"""FieldStream (method page *Random fields*, §1.4): stationary from frame 0, equal to one-shot
+sampling, resumable."""
 
 import math
 import pickle

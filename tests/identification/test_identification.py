@@ -1,5 +1,6 @@
-"""identify and yule_walker (SPEC §1.6): exact recovery from exact covariances, statistical
-recovery from simulated fields, real images, invariances and bad input."""
+"""identify and yule_walker (method page *Identification*, §1.6): exact recovery from exact
+covariances, statistical recovery from simulated fields, real images, invariances and bad
+input."""
 
 import pickle
 

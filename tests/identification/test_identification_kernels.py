@@ -1,5 +1,5 @@
-"""Rust identification kernels == their NumPy twins (SPEC §1.6), and the FFT sample
-correlation == direct sums, on data with missing values."""
+"""Rust identification kernels == their NumPy twins (method page *Identification*, §1.6), and the
+FFT sample correlation == direct sums, on data with missing values."""
 
 import numpy as np
 import pytest

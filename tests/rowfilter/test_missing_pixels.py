@@ -1,5 +1,5 @@
 """ScalarRowFilter with per-pixel noise variances and missing (NaN) pixels, and the Toeplitz
-mode set (SPEC §2.3 generalised)."""
+mode set (method page *Row filters*, §2.3 generalised)."""
 
 import pickle
 

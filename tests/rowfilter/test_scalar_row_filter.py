@@ -1,4 +1,4 @@
-"""The quasi-optimal row filter (SPEC §2.3 generalised) and denoise."""
+"""The quasi-optimal row filter (method page *Row filters*, §2.3 generalised) and denoise."""
 
 import os
 import pickle
@@ -223,8 +223,9 @@ def test_order_four_agrees_to_the_conditioning_of_the_row_basis():
 
 def test_order_four_at_high_correlation_stays_optimal_pixel_by_pixel():
     """(4,4) at ρ = 0.97 (outside the issue's grid): the Rust filter and its twin differ by
-    ~1e-4 here (the systems' conditioning, README), but the Rust filter's exact per-pixel
-    MSE map stays within 0.1 % of the optimal vector filter's everywhere, edges included."""
+    ~1e-4 here (the systems' conditioning, see the accuracy page), but the Rust filter's exact
+    per-pixel MSE map stays within 0.1 % of the optimal vector filter's everywhere, edges
+    included."""
     model = kf.ARFieldModel([0.97, 0.97], [4, 4])
     shape = (40, 120)
     mse = exact_mse_map(kf.ScalarRowFilter(model, 1.0, shape[1]), model, 1.0, shape)
@@ -239,7 +240,7 @@ def test_order_four_at_high_correlation_stays_optimal_pixel_by_pixel():
 )
 def test_loss_against_optimal_and_wiener_bound(order, rho, ratio):
     # exact MSEs on 24×24: the quasi-optimal filter within 3 % of the optimal row filter,
-    # its smoothed version within 5 % of the best linear estimator (SPEC §2.3–2.4 targets)
+    # its smoothed version within 5 % of the best linear estimator (§2.3–2.4 targets)
     model = kf.ARFieldModel([rho, rho], order)
     noise_var, shape = 1.0 / ratio, (24, 24)
     optimal = kf.VectorRowFilter(model, noise_var, 24).error_variance(24).mean()
@@ -407,7 +408,7 @@ def test_stack_pickle_and_mean():
     f = kf.ScalarRowFilter(model, 2.0, 20, smooth=True, mean=50.0)
     assert (f.model, f.noise_var, f.width, f.smooth) == (model, 2.0, 20, True)
     out = f.filter(stack)
-    # the filter acts on the deviation from the mean (SPEC §2: zero-mean field)
+    # the filter acts on the deviation from the mean (§2: zero-mean field)
     centred = kf.ScalarRowFilter(model, 2.0, 20, smooth=True).filter(stack - 50.0)
     np.testing.assert_allclose(out, centred + 50.0, rtol=0, atol=1e-12)
     for k in range(4):

@@ -1,4 +1,5 @@
-"""The optimal vector row filter and the Wiener bound (SPEC §2.1–2.2, §2.4)."""
+"""The optimal vector row filter and the Wiener bound (method page *Row filters*, §2.1–2.2,
+§2.4)."""
 
 import pickle
 

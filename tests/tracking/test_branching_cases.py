@@ -1,6 +1,6 @@
-"""The branching tracker (SPEC §3.1–3.3) on hand-built cases, both the Rust class and its
-NumPy reference twin: crossing targets, a miss, clutter inside the gate, a target appearing
-mid-sequence, non-overlap of the final selection."""
+"""The branching tracker (method page *Tracking*, §3.1–3.3) on hand-built cases, both the Rust
+class and its NumPy reference twin: crossing targets, a miss, clutter inside the gate, a target
+appearing mid-sequence, non-overlap of the final selection."""
 
 import numpy as np
 import pytest

@@ -1,6 +1,6 @@
-"""The branching multi-target tracker (SPEC §3.1–3.3): the Rust class against its NumPy twin
-(same decisions, floats to 1e-9), the per-parameter Kalman filter and the score against an
-independent NumPy loop, the likelihood index against its χ² law, the final selection,
+"""The branching multi-target tracker (method page *Tracking*, §3.1–3.3): the Rust class against
+its NumPy twin (same decisions, floats to 1e-9), the per-parameter Kalman filter and the score
+against an independent NumPy loop, the likelihood index against its χ² law, the final selection,
 pickling, bad input, ``link``, heavy clutter and a property test on random small frames.
 
 The hand-built cases (crossing, miss, clutter in the gate, late target) live in
@@ -192,7 +192,7 @@ def expected_score(d_start, nu_max, pd_, lam, log_var, incs, penalty=0.0):
 
 
 def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
-    """Plain per-parameter polynomial Kalman filter (SPEC §3.1), written independently:
+    """Plain per-parameter polynomial Kalman filter (§3.1), written independently:
     F = Taylor matrix of τ, Q = σ² g gᵀ with g_i = τ^(ν+1−i)/(ν+1−i)!, H = (1, 0, …).
     ``js[i]`` > 0: the tracker's maneuver branch at frame i, a velocity jump of that
     std at the previous frame, P_pred += σ_m² g_m g_mᵀ with g_m = (τ, 1, 0, …) ((1,) for

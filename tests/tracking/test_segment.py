@@ -1,4 +1,4 @@
-"""kalmanfield.segment (SPEC §3): the Rust kernel against the NumPy reference and
+"""kalmanfield.segment (method page *Tracking*, §3): the Rust kernel against the NumPy reference and
 scipy.ndimage, analytic cases, the label image, and bad input."""
 
 import numpy as np

@@ -1,5 +1,6 @@
-"""One-call denoising of images by the row Kalman filters (SPEC §2), with the model and the
-noise level estimated from the noisy image itself, optionally locally adapted."""
+"""One-call denoising of images by the row Kalman filters, with the model and the noise level
+estimated from the noisy image itself, optionally locally adapted (method page
+*Denoising*)."""
 
 from __future__ import annotations
 
@@ -26,20 +27,51 @@ from ..rowfilter.scalar import ScalarRowFilter, check_row_models
 from ..rowfilter.vector import VectorRowFilter
 
 #: Model of the normalised detail field of the adaptive denoiser (see :func:`denoise`),
-#: chosen on scikit-image training images other than the benchmark's (README).
+#: chosen on scikit-image training images other than the benchmark's (method page
+#: *Denoising*).
 DETAIL_MODEL = ARFieldModel([0.7, 0.7], [1, 1])
 
 
 def local_moments(image: npt.ArrayLike, window: int) -> tuple[np.ndarray, np.ndarray]:
-    """(mean, variance) of every pixel's window × window box (odd `window`; the box is cut
-    at the borders, so any window ≥ 2 max(H, W) + 1 gives the whole frame's moments), for
-    an image (H, W) or a stack (F, H, W); Rust, O(1) per pixel.
-    NaN pixels are missing: the moments are those of the box's other pixels, NaN where the
-    box holds none. Images whose largest |pixel| lies outside [2⁻⁴⁰⁰, 2⁴⁰⁰] are scaled by a
-    power of two (exact) for the sums of squares, so the moments of data of any magnitude
-    are those of the scaled data, scaled back (variances below float64's normal range are
-    rounded to its subnormal numbers); ValueError ("rescale") when a variance overflows
-    float64 (|pixel deviations| ≳ 1e154)."""
+    """Mean and variance of every pixel's window × window box.
+
+    Parameters
+    ----------
+    image : array_like
+        An image (H, W) or a stack (F, H, W); NaN pixels are missing (the moments are those
+        of the box's other pixels).
+    window : int
+        Odd box side. The box is cut at the borders, so a window ≥ 2 max(H, W) + 1 gives the
+        whole frame's moments.
+
+    Returns
+    -------
+    mean : numpy.ndarray
+        Box means, of the image's shape (NaN where the box holds no observed pixel).
+    variance : numpy.ndarray
+        Box variances, likewise.
+
+    Raises
+    ------
+    ValueError
+        An even or non-positive window, images that are not 2-D or 3-D, a variance that
+        overflows float64 (pixel deviations ≳ 1e154).
+    TypeError
+        A window that is not an integer.
+
+    Notes
+    -----
+    O(1) work per pixel (running sums, Rust). Images whose largest absolute pixel lies outside
+    [2⁻⁴⁰⁰, 2⁴⁰⁰] are scaled by a power of two (exact) for the sums of squares.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> mean, var = kf.local_moments(np.arange(25.0).reshape(5, 5), window=3)
+    >>> float(mean[2, 2]), round(float(var[2, 2]), 2)  # the box's population variance
+    (12.0, 17.33)
+    """
     z = images(image, missing=True)
     radius = _box_radius(window, z)
     exponent = _moments_scale(z)
@@ -89,13 +121,43 @@ def _box_radius(window: object, z: np.ndarray) -> int:
 
 
 def estimate_noise_var(image: npt.ArrayLike) -> float:
-    """σ_θ² of white noise in an image (or a stack, axes (…, H, W)): Donoho's robust estimate
-    from the finest diagonal Haar detail d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of disjoint 2×2 blocks,
-    σ̂ = median|d| / Φ⁻¹(3/4) (≈ 0.67449, the normal's quartile; the detail of a smooth image
-    is ~0, of white noise N(0, σ²)), pooled over the frames of a stack. Blocks with a NaN
-    (missing) or infinite pixel are left out. ValueError when σ̂² overflows float64
-    (σ̂ ≳ 1e154).
-    Rust kernel (``rust/src/noise_level.rs``; NumPy twin ``reference.noise_level``)."""
+    """Variance σ_θ² of the white noise in an image, by the robust Haar-MAD estimate.
+
+    Parameters
+    ----------
+    image : array_like
+        An image (H, W) or a stack (…, H, W), at least 2 × 2; blocks with a NaN (missing) or
+        infinite pixel are left out.
+
+    Returns
+    -------
+    float
+        The estimate σ̂², pooled over the frames of a stack.
+
+    Raises
+    ------
+    ValueError
+        An image smaller than 2 × 2, a σ̂² that overflows float64.
+
+    Notes
+    -----
+    σ̂ = median|d| / Φ⁻¹(3/4) over the diagonal Haar details d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2
+    of the disjoint 2 × 2 blocks: the detail of a smooth image is ~0, of white noise
+    N(0, σ²). See :doc:`/methods/denoising`.
+
+    References
+    ----------
+    .. [1] D. L. Donoho and I. M. Johnstone, "Ideal spatial adaptation by wavelet
+       shrinkage", Biometrika 81(3), 425–455, 1994.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> z = np.random.default_rng(0).normal(0, 2.0, (512, 512))
+    >>> round(kf.estimate_noise_var(z), 1)
+    4.0
+    """
     z = real_array(image, "image")
     if z.ndim < 2 or z.shape[-1] < 2 or z.shape[-2] < 2 or z.size == 0:
         raise ValueError(f"need an image of at least 2×2 pixels, got shape {z.shape}")
@@ -119,62 +181,87 @@ def denoise(
     threads: int | None = None,
     row_models: Literal["nominal", "propagated", "implied"] = "nominal",
 ) -> np.ndarray:
-    """Denoise an image (H, W) or a stack (F, H, W) of z = x + θ (SPEC §2).
+    """Denoise an image or a stack of z = x + θ, θ white, by the row Kalman filters.
 
-    noise_var : σ_θ²; None → :func:`estimate_noise_var` (robust Haar-MAD estimate).
-    adaptive : locally adapted mean and variance (default with method="scalar"). The image is
-        modelled as x = μ(s) + σ(s) ξ(s), with μ and σ² + σ_θ² the mean and variance of the
-        `window`² box around each pixel (:func:`local_moments`) and ξ a unit-variance AR
-        field (`model`, default :data:`DETAIL_MODEL`). The normalised residual
-        (z − μ)/σ = ξ + θ/σ is filtered by :class:`ScalarRowFilter` (Toeplitz modes,
-        ar_order = max(n_x, 2) (at most 8): every row is weighted, so refitted at O(W m³), and
-        the detail model's short reach gains nothing from the longer default of n_y = 1) with the
-        per-pixel noise variance σ_θ²/σ(s)²: little smoothing on edges and texture, strong in
-        flat areas; x̂ = μ + σ ξ̂. With ρ = 0 this is the adaptive (Lee) Wiener filter of
-        ``scipy.signal.wiener``; the AR model of ξ adds the row-Kalman smoothing.
-        σ² is floored at 0.01 σ_θ². The filter's nominal noise variance (which only sets its
-        prediction-error model) is 1/median(σ²/σ_θ²) over a regular sample of ≤ 2¹⁴ pixels.
-        One Rust kernel (``rust/src/adaptive_denoise.rs``; NumPy twin
-        ``reference.adaptive_denoise``); the frames of a stack run in parallel.
-    row_models : the adaptive filter's row models for its per-pixel weights (see
-        :class:`ScalarRowFilter`). "nominal" (default): the plan's, fitted for the nominal
-        noise ratio, the fast path. "propagated": refitted row by row to the weighted
-        systems, +0.1–0.3 dB on camera, astronaut, coins and moon (σ = 0.1) at 3.5–5× the
-        time (README); "implied": propagated from the first predicted row on, not from the
-        first row whose weights depart from the nominal ones. The stationary path
-        (adaptive=False) always uses :class:`ScalarRowFilter`'s default, "auto"
-        ("propagated", or "implied" near a unit root at high SNR).
-    adaptive=False : one stationary model for the whole image. `model`: the field model of x;
-        None → :func:`model_from_noisy` (noise-robust fit of the autocovariance at lags ≥ 1),
-        filtered with the Toeplitz mode set (its plan is cheap, and a model refitted per
-        image has no plan to reuse; on camera, coins and moon, σ = 0.1, the PSNR moves by
-        at most 0.02 dB against the default spliced ends and the filter is built 4–10×
-        faster); a given model gets the default mode set. The scalar filter takes
-        ar_order = max(n_x, 2) (at most 8), not its longer default for n_y = 1: the identified
-        models are (1, 1) at ρ ≈ 0.93–0.99 on natural images, and a row model that follows them
-        more faithfully lands nearer the vector filter's lower PSNR (σ = 0.1, m = 2 / 4 /
-        8: camera 25.50 / 25.09 / 24.96 dB, moon 34.42 / 34.31 / 34.23; the model, not the
-        filter, limits it) at 1.6–3× the time.
-    method : "scalar" (:class:`ScalarRowFilter`, O(W) per row) or "vector"
-        (:class:`VectorRowFilter`, optimal, O(W²) per row; not adaptive).
-    smooth : run the backward pass over the rows (default).
-    mean : the field mean of the stationary model (None: the image mean); checked in both
-        modes, used by the stationary one (the adaptive mode follows the local means).
-    threads : threads for the frames of a stack (None: all cores). In the adaptive mode a
-        single image runs on the calling thread (GIL released) whatever `threads` says: its
-        kernel has no parallel part, and the thread keeps its scratch buffers between calls.
-    Returns float64 of the image's shape (an empty stack, (0, H, W), gives an empty one).
-    uint8/uint16/float inputs are accepted. Images whose largest |pixel| lies outside
-    [2⁻⁴⁰⁰, 2⁴⁰⁰] are denoised scaled by a power of two (exact; noise_var, mean and a
-    stationary model's σ alike) and scaled back, so any magnitude float64 holds works.
-    NaN pixels are missing observations (method="scalar"): left out of the noise estimate,
-    the model fit and the box moments, given weight 0 by the filter and filled by its
-    estimate from the neighbouring pixels (a box without an observed pixel is widened,
-    radius 2r + 1, …, until it holds one). method="vector" needs every pixel.
-    A frame of a stack with no observed pixel: the adaptive mode raises ValueError (it has
-    no local moments to adapt to); the stationary mode (adaptive=False) returns that frame as
-    the field mean, the filter's answer when nothing is observed (the frames of a stack are
-    filtered independently).
+    By default the noise level is estimated, the image's local mean and variance adapt the
+    filter pixel by pixel, and a smoothing pass runs over the rows.
+
+    Parameters
+    ----------
+    image : array_like
+        An image (H, W) or a stack (F, H, W); float64, float32, uint8 or uint16. NaN pixels
+        are missing observations (``method="scalar"``), filled from their neighbours.
+    noise_var : float, optional
+        The noise variance σ_θ²; None estimates it (:func:`estimate_noise_var`).
+    model : ARFieldModel, optional
+        Adaptive mode: the model of the normalised detail field ξ (default
+        :data:`DETAIL_MODEL`, (1,1) with ρ = 0.7). Stationary mode: the model of x (default
+        fitted by :func:`model_from_noisy`).
+    method : {"scalar", "vector"}, default "scalar"
+        :class:`ScalarRowFilter` (O(W) per row) or :class:`VectorRowFilter` (optimal,
+        O(W²) per row; needs every pixel, not adaptive).
+    smooth : bool, default True
+        Run the smoothing pass over the rows.
+    adaptive : bool, optional
+        Locally adapted mean and variance (default: True with ``method="scalar"``); False
+        filters with one stationary model for the whole image.
+    window : int, default 9
+        Odd side of the box of the local moments (adaptive mode).
+    mean : float, optional
+        The field mean of the stationary model (None: the image mean); checked in both
+        modes, used by the stationary one.
+    threads : int, optional
+        Threads for the frames of a stack (None: all cores); a single image runs on the
+        calling thread, GIL released.
+    row_models : {"nominal", "propagated", "implied"}, default "nominal"
+        Row models of the adaptive filter's per-pixel weights (see
+        :class:`ScalarRowFilter`): "nominal" is the fast path; "propagated" gains
+        +0.1–0.3 dB on the benchmark images at 3.5–5× the time.
+
+    Returns
+    -------
+    numpy.ndarray
+        The estimate, float64 of the image's shape (an empty stack gives an empty one).
+
+    Raises
+    ------
+    ValueError
+        A bad option (``adaptive=True`` with ``method="vector"``), images that are not 2-D
+        or 3-D or hold infinite values, every pixel missing (or a frame without an observed
+        pixel in the adaptive mode), a noise variance estimated as 0 or out of float64's
+        range, NaN pixels with ``method="vector"``.
+    TypeError
+        A model that is not an ARFieldModel, an image that is not numeric.
+
+    See Also
+    --------
+    ScalarRowFilter : The filter, with a model and noise level of your own.
+    estimate_noise_var : The noise estimate.
+
+    Notes
+    -----
+    Adaptive mode: x = μ(s) + σ(s) ξ(s), with μ and σ² + σ_θ² the mean and variance of the
+    `window`² box around each pixel; the normalised residual (z − μ)/σ = ξ + θ/σ is
+    filtered with per-pixel noise variance σ_θ²/σ²: little smoothing on edges and texture,
+    strong in flat areas. With ρ = 0 this is the adaptive (Lee) Wiener filter of
+    ``scipy.signal.wiener``; the AR model of ξ adds the row-Kalman smoothing. Images of any
+    magnitude float64 holds are scaled by a power of two (exact) and back. Method and
+    choices: :doc:`/methods/denoising`; figures: :doc:`/benchmarks/row_filters`.
+
+    References
+    ----------
+    .. [1] J.-S. Lee, "Digital image enhancement and noise filtering by use of local
+       statistics", IEEE Trans. PAMI 2(2), 165–168, 1980.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel([0.95, 0.95], [2, 2]).sample((128, 128), seed=1)
+    >>> z = x + np.random.default_rng(0).normal(0, 0.5, x.shape)
+    >>> x_hat = kf.denoise(z)
+    >>> bool(np.mean((x_hat - x) ** 2) < 0.25 * np.mean((z - x) ** 2))
+    True
     """
     if method not in ("scalar", "vector"):
         raise ValueError(f"method must be 'scalar' or 'vector', got {method!r}")

@@ -1,4 +1,5 @@
-"""The separable multiple-root autoregressive field model (SPEC §1.1–1.5)."""
+"""The separable multiple-root autoregressive field model (method page *Random fields*,
+§1.1–1.5)."""
 
 from __future__ import annotations
 
@@ -74,22 +75,55 @@ def _as_tuple(value: object, kind: type, name: str, what: str) -> tuple:
 
 
 class ARFieldModel:
-    """Gaussian field Π_k (1 - ρ_k z_k⁻¹)^{n_k} x = β ξ, one (ρ_k, n_k) per axis (SPEC §1.2).
+    """Separable Gaussian AR field with a multiple root per axis.
+
+    The field solves Π_k (1 − ρ_k z_k⁻¹)^{n_k} x = β ξ, one (ρ_k, n_k) per axis, with ξ
+    white N(0, 1); its correlation function is σ² Π_k R_k(r_k).
 
     Parameters
     ----------
     rho : float or sequence of float
-        Correlation parameter per axis, 0 < ρ < 1, a normal float64 (a scalar is repeated
-        over the axes of ``order``).
+        Correlation parameter ρ per axis, 0 < ρ < 1 (a scalar is repeated over the axes of
+        `order`).
     order : int or sequence of int
-        Multiplicity n ≥ 1 of the root 1/ρ per axis (1: exponential correlation, 2: the
-        8-point model, higher: smoother, more isotropic fields).
-    sigma : float
-        Standard deviation σ of the field, within [2⁻⁵¹⁰, 2⁵¹⁰] ≈ [3.0e-154, 3.4e153]
-        (σ² stays a normal float64).
+        Multiplicity n of the root 1/ρ per axis, 1 ≤ n ≤ 16 (1: exponential correlation,
+        2: the 8-point model, higher: smoother, more isotropic fields). A scalar is
+        repeated over the axes of `rho`.
+    sigma : float, default 1.0
+        Standard deviation σ of the field, within [2⁻⁵¹⁰, 2⁵¹⁰] ≈ [3.0e-154, 3.4e153].
 
-    The correlation function is R(r̄) = σ² Π_k R_k(r_k) with R_k of [P 2.9]. Axis 0 is the
-    slowest (C order); for space–time streams it is time.
+    Raises
+    ------
+    ValueError
+        ρ outside (0, 1) or NaN, an order outside 1..16, lengths of `rho` and `order` that
+        differ, σ out of range.
+    TypeError
+        Parameters that are not real numbers (or integers for `order`).
+
+    See Also
+    --------
+    FieldStream : Frames of a model whose axis 0 is time.
+    sample_product_field : A non-Gaussian field with the same correlation.
+    identify : A model fitted to data.
+
+    Notes
+    -----
+    Axis 0 is the slowest (C order); for space–time models it is time. The formulas, with
+    the fixes to the source's typos, are on the method page :doc:`/methods/random_fields`
+    (§1.1–1.2); :doc:`/accuracy` gives the numerical range of each method.
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, ch. 2 ([P] in :doc:`/references`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel(rho=[0.9, 0.9], order=[2, 2])  # the 8-point model
+    >>> model.sample((256, 256), seed=1).shape
+    (256, 256)
+    >>> model.correlation([[0, 0], [1, 2]]).round(4)
+    array([1.    , 0.9746])
     """
 
     __slots__ = ("_rho", "_order", "_sigma", "_core")
@@ -103,34 +137,52 @@ class ARFieldModel:
     # -- attributes ---------------------------------------------------------------------
     @property
     def rho(self) -> tuple[float, ...]:
-        """ρ per axis."""
+        """The correlation parameter ρ of each axis (a tuple)."""
         return self._rho
 
     @property
     def order(self) -> tuple[int, ...]:
-        """Root multiplicity n per axis."""
+        """The root multiplicity n of each axis (a tuple)."""
         return self._order
 
     @property
     def sigma(self) -> float:
-        """Standard deviation of the field."""
+        """The standard deviation σ of the field."""
         return self._sigma
 
     @property
     def ndim(self) -> int:
-        """Number of axes."""
+        """The number of axes."""
         return len(self._rho)
 
     @property
     def beta(self) -> float:
-        """Driving-noise gain β = σ Π_k β̃_k of the template recursion [P 2.11, 2.16]."""
+        """The driving-noise gain β = σ Π_k β̃_k of the template recursion (§1.2)."""
         return self._core.beta()
 
     # -- formulas -----------------------------------------------------------------------
     def coefficients(self) -> np.ndarray:
-        """Template c_j̄ of shape (n_1+1, …, n_N+1), c_0̄ = 1 (SPEC §1.2, [P 2.14] with the
-        sign fix): x_ī = -Σ_{j̄≠0} c_j̄ x_{ī-j̄} + β ξ_ī. At most 2**26 coefficients
-        (the generator never needs the template; it runs the axis cascade)."""
+        """Coefficients c of the template recursion x_ī = −Σ_{j̄≠0} c_j̄ x_{ī−j̄} + β ξ_ī.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (n_1 + 1, …, n_N + 1), c_0̄ = 1 (method page :doc:`/methods/random_fields`,
+            §1.2, with the sign fix of [P 2.14]).
+
+        Raises
+        ------
+        ValueError
+            The template would hold more than 2**26 coefficients (the generator never needs
+            it: it runs the axis cascade).
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> kf.ARFieldModel(0.5, [1, 1]).coefficients()
+        array([[ 1.  , -0.5 ],
+               [-0.5 ,  0.25]])
+        """
         size = int(np.prod([n + 1 for n in self.order], dtype=object))
         if size > MAX_TEMPLATE:
             raise ValueError(
@@ -140,9 +192,31 @@ class ARFieldModel:
         return self._core.template()
 
     def correlation(self, lags: npt.ArrayLike) -> np.ndarray:
-        """σ² Π_k R_k(r_k) (SPEC §1.1–1.2) for lags of shape (..., N), integer or real
-        (real lags use ρ^|r|·polynomial(|r|) of [P 2.9]). For a 1-axis model, lags of any
-        shape whose last axis is not of length 1 are taken as scalar lags."""
+        """Correlation function σ² Π_k R_k(r_k) at the given lags.
+
+        Parameters
+        ----------
+        lags : array_like
+            Lags of shape (..., N), integer or real (a real lag r uses the extension
+            ``ρ^|r| · polynomial(|r|)``, §1.1). For a 1-axis model, lags whose last axis is not of
+            length 1 are scalar lags.
+
+        Returns
+        -------
+        numpy.ndarray
+            The covariances, of shape ``lags.shape[:-1]``.
+
+        Raises
+        ------
+        ValueError
+            Lags of the wrong shape, NaN or infinite lags.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> kf.ARFieldModel(0.5, 1).correlation([0, 1, 2.5]).round(4)
+        array([1.    , 0.5   , 0.1768])
+        """
         shape: tuple[int, ...] = np.shape(lags)  # (real_array makes a 0-d input 1-d)
         arr = real_array(lags, "lags").reshape(shape)
         if self.ndim == 1 and (arr.ndim == 0 or arr.shape[-1] != 1):
@@ -155,9 +229,27 @@ class ARFieldModel:
         return self._core.correlation(flat).reshape(arr.shape[:-1])
 
     def anisotropy(self) -> float:
-        """A_τ = std_u τ(u) / mean_u τ(u), τ(u) = ∫_0^∞ R(t u) dt, u uniform on the unit
-        sphere (SPEC §1.5, [P 2.22]); closed form in t, Gauss–Legendre over the sphere.
-        Depends on the ρ of every axis (for the (1,1) model it does not: ≈ 0.10521)."""
+        """Anisotropy coefficient A_τ = std_u τ(u) / mean_u τ(u), τ(u) = ∫₀^∞ R(t u) dt.
+
+        u runs uniformly over the unit sphere (§1.5 of :doc:`/methods/random_fields`, [P 2.22]).
+
+        Returns
+        -------
+        float
+            A_τ; it depends on the ρ of every axis (for the (1,1) model it does not:
+            0.10509).
+
+        Raises
+        ------
+        ValueError
+            A model of one axis, or of more than 8 axes.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> round(kf.ARFieldModel(0.5, [1, 1]).anisotropy(), 5)
+        0.10509
+        """
         if self.ndim < 2:
             raise ValueError("anisotropy needs a model with at least two axes")
         if self.ndim > MAX_ANISOTROPY_AXES:
@@ -177,23 +269,54 @@ class ARFieldModel:
         dtype: npt.DTypeLike = np.float64,
         threads: int | None = None,
     ) -> np.ndarray:
-        """One realisation on a grid of `shape`, exactly stationary up to the edges
-        (SPEC §1.3): the covariance of any two grid points is σ² Π_k R_k.
+        """One realisation on a grid, exactly stationary up to the edges.
 
-        Made by the axis cascade x = σ L_0 ⋯ L_{N-1} ξ (SPEC §1.2), Σ n_k multiply-adds per
-        element; L_k is the stationary-start recursion of axis k.
+        The covariance of any two grid points is σ² Π_k R_k, edges and corners included
+        (§1.3 of :doc:`/methods/random_fields`).
 
-        seed : int in [0, 2**64), numpy Generator or None (OS entropy). Each line of the last
-            axis draws from its own stream keyed by (seed, line), so the result is the same on
-            any number of threads.
-        noise : optional driving white noise ξ, standard normal, of shape `shape` (ξ[ī] drives
-            element ī). When given, `seed` is ignored. Lets the NumPy reference be fed the
-            same input. ValueError when the field it makes leaves the dtype's range.
-        dtype : float64 or float32. float32 runs the recursions in single precision where
-            their rounding errors stay below ~1e-3 σ (1/β̃ ≤ 84 on every axis: e.g. (0.9, 2),
-            (0.95, 2)); smoother models are made in float64 and rounded once (the float64
-            field's values, rounded), since single-precision states drift by up to O(σ).
-        threads : number of threads (None: all cores).
+        Parameters
+        ----------
+        shape : int or tuple of int
+            Grid shape, one length per axis of the model.
+        seed : int, numpy.random.Generator or None, default None
+            Seed in [0, 2**64); None draws fresh OS entropy. The same seed gives the same
+            bits on any number of threads.
+        noise : array_like, optional
+            Driving white noise ξ, standard normal, of shape `shape` (ξ[ī] drives element
+            ī); `seed` is then ignored.
+        dtype : {numpy.float64, numpy.float32}, default numpy.float64
+            Output dtype. float32 runs the recursions in single precision only where their
+            rounding stays below ~1e-3 σ; other models are made in float64 and rounded once.
+        threads : int, optional
+            Number of threads (None: all cores).
+
+        Returns
+        -------
+        numpy.ndarray
+            The field, of `shape` and `dtype`.
+
+        Raises
+        ------
+        ValueError
+            A shape that does not match the model, given noise of the wrong shape or not
+            finite (or whose field leaves the dtype's range), a model whose exact start is
+            beyond float64 (see :doc:`/accuracy`).
+        MemoryError
+            A grid larger than the machine's memory.
+
+        Notes
+        -----
+        Made by the axis cascade x = σ L_0 ⋯ L_{N−1} ξ (§1.2): Σ_k n_k multiply-adds per
+        element, the GIL released, large grids on all cores. Each line of the last axis
+        draws from its own random stream keyed by (seed, line).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import kalmanfield as kf
+        >>> x = kf.ARFieldModel([0.9, 0.9], [2, 2]).sample((512, 512), seed=1, dtype=np.float32)
+        >>> x.dtype
+        dtype('float32')
         """
         dims = grid_shape(shape, self.ndim)
         dt = float_dtype(dtype, self.sigma)
@@ -215,8 +338,31 @@ class ARFieldModel:
         dtype: npt.DTypeLike = np.float64,
         threads: int | None = None,
     ) -> FieldStream:
-        """An endless, stationary sequence of frames; axis 0 of the model is time
-        (SPEC §1.4). See :class:`kalmanfield.FieldStream`."""
+        """An endless, stationary sequence of frames; axis 0 of the model is time.
+
+        Parameters
+        ----------
+        frame_shape : int or tuple of int
+            Shape of a frame (the model's axes after the first).
+        seed : int, numpy.random.Generator or None, default None
+            Seed of the stream (None: OS entropy).
+        dtype : {numpy.float64, numpy.float32}, default numpy.float64
+            Dtype of the frames.
+        threads : int, optional
+            Number of threads per frame (None: all cores).
+
+        Returns
+        -------
+        FieldStream
+            The stream (§1.4 of :doc:`/methods/random_fields`).
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> video = kf.ARFieldModel([0.95, 0.9, 0.9], [1, 2, 2]).stream((64, 64), seed=7)
+        >>> next(video).shape
+        (64, 64)
+        """
         from .stream import FieldStream
 
         return FieldStream(self, frame_shape, seed=seed, dtype=dtype, threads=threads)

@@ -1,4 +1,4 @@
-"""The product model of SPEC §1.4 [P 2.18]."""
+"""The product model (method page *Random fields*, §1.4; [P 2.18])."""
 
 from __future__ import annotations
 
@@ -29,13 +29,55 @@ def sample_product_field(
     dtype: npt.DTypeLike = np.float64,
     threads: int | None = None,
 ) -> np.ndarray:
-    """x_ī = σ Π_k s^{(k)}_{i_k} from N independent unit-variance stationary 1-D sequences of
-    the axis models (SPEC §1.4, [P 2.18]).
+    """A product field x_ī = σ Π_k s⁽ᵏ⁾_{i_k} of independent 1-D sequences, one per axis.
 
-    Same correlation function σ² Π R_k as :meth:`ARFieldModel.sample` but not Gaussian (for two
-    axes the marginal density is K0(|x|/σ²)/(πσ²)); O(1) work per element.
-    `noise`, when given, is one standard-normal 1-D array per axis, of length shape[k]
-    (ValueError when the field it makes leaves the dtype's range).
+    Each s⁽ᵏ⁾ is a unit-variance stationary sequence of axis k's model, so the field has the
+    correlation function σ² Π_k R_k of :meth:`ARFieldModel.sample` but is not Gaussian.
+
+    Parameters
+    ----------
+    model : ARFieldModel
+        The model whose axis models make the sequences.
+    shape : int or tuple of int
+        Grid shape, one length per axis.
+    seed : int, numpy.random.Generator or None, default None
+        Seed (None: OS entropy).
+    noise : sequence of array_like, optional
+        One standard-normal 1-D array per axis, of length ``shape[k]``, driving the
+        sequences; `seed` is then ignored.
+    dtype : {numpy.float64, numpy.float32}, default numpy.float64
+        Output dtype.
+    threads : int, optional
+        Number of threads (None: all cores).
+
+    Returns
+    -------
+    numpy.ndarray
+        The field, of `shape` and `dtype`.
+
+    Raises
+    ------
+    TypeError
+        `model` is not an ARFieldModel, `noise` is not a sequence of arrays.
+    ValueError
+        A shape that does not match the model; noise of the wrong count, length or not
+        finite, or whose field leaves the dtype's range.
+
+    Notes
+    -----
+    O(1) work per element. For two axes the marginal density is ``K₀(|x|/σ²)/(πσ²)`` (§1.4 of
+    :doc:`/methods/random_fields`, with the source's missing 1/π restored).
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, eq. 2.18 ([P] in :doc:`/references`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.9, 0.9], [2, 2])
+    >>> kf.sample_product_field(model, (128, 128), seed=3).shape
+    (128, 128)
     """
     if not isinstance(model, ARFieldModel):
         raise TypeError(f"model must be an ARFieldModel, got {type(model).__name__}")

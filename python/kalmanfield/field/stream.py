@@ -1,4 +1,4 @@
-"""Endless space–time field sequences, frame by frame (SPEC §1.4)."""
+"""Endless space–time field sequences, frame by frame (method page *Random fields*, §1.4)."""
 
 from __future__ import annotations
 
@@ -26,29 +26,69 @@ from .stream_state import check_recursions, checked_state, history_limit
 
 
 class FieldStream:
-    """Frames x_t of a model whose axis 0 is time: x_t = Σ_j α_{t,j} x_{t-j} + β_t η_t with
-    η_t a spatial field of the remaining axes (SPEC §1.4), stationary from frame 0 (the first
-    n_t frames use the boundary recursion of SPEC §1.3).
+    """Endless, stationary sequence of frames of a model whose axis 0 is time.
 
-    The stream is its own iterator (``next(stream)``), unbounded, and keeps only the last n_t
-    frames (memory O(n_t · frame)). Frames are returned read-only because the stream keeps
-    the same arrays as its state (no copy per frame); ``frame.copy()`` gives a writable one.
-    Frame t draws the same noise as slice t of ``model.sample((T, *frame_shape), seed)``, so
-    the two agree. It pickles at any point; the
-    unpickled copy continues bit-identically. A pickled state is checked on load (every
-    field as the constructor checks it; n_t or fewer history frames of the stream's shape
-    and dtype, finite and within what the time recursion carries without overflow:
-    :func:`kalmanfield.field.stream_state.history_limit`): a corrupt one is a ValueError or
-    TypeError there.
+    Frame t is x_t = Σ_j α_{t,j} x_{t−j} + β_t η_t with η_t a spatial field of the remaining
+    axes, stationary from frame 0. The stream is its own iterator (``next(stream)``) and
+    keeps only the last n_t frames.
 
-    One stream serves one thread at a time: a call while another thread is drawing from
-    it raises RuntimeError ("already in use"; its frames would otherwise interleave).
+    Parameters
+    ----------
+    model : ARFieldModel
+        A model of at least two axes; axis 0 is time.
+    frame_shape : int or tuple of int
+        Shape of a frame (the model's axes after the first).
+    seed : int, numpy.random.Generator or None, default None
+        Seed (None: OS entropy). Frame t draws the same noise as slice t of
+        ``model.sample((T, *frame_shape), seed)``, so the two agree.
+    dtype : {numpy.float64, numpy.float32}, default numpy.float64
+        Dtype of the frames.
+    threads : int, optional
+        Number of threads per frame (None: all cores).
 
-    A float32 stream runs its recursions in single precision, so it is refused (ValueError:
-    use float64) for models whose rounding errors would pass ~1e-3 σ there (1/β̃ > 84 on an
-    axis; :meth:`ARFieldModel.sample` falls back to float64 for those instead). So is a
-    model whose exactly stationary start is beyond float64 (at construction, not at the
-    first frame).
+    Attributes
+    ----------
+    model : ARFieldModel
+        The model.
+    frame_shape : tuple of int
+        Shape of a frame.
+    dtype : numpy.dtype
+        Dtype of the frames.
+    seed : int
+        The resolved seed.
+    threads : int or None
+        Threads per frame.
+    time : int
+        Number of frames drawn so far.
+
+    Raises
+    ------
+    TypeError
+        `model` is not an ARFieldModel.
+    ValueError
+        A model of one axis, a frame shape that does not match it, a float32 stream of a
+        model whose single-precision recursion would drift (use float64), a model whose
+        exact start is beyond float64.
+    MemoryError
+        Frames larger than the machine's memory.
+
+    Notes
+    -----
+    Frames are returned read-only: the stream keeps the same arrays as its state (no copy
+    per frame); ``frame.copy()`` gives a writable one. A stream pickles at any point and the
+    copy continues bit-identically; a pickled state is checked at load, and a corrupt one is
+    a ValueError or TypeError there. One stream serves one thread at a time: a call while
+    another thread draws from it raises RuntimeError. Method: §1.4 of
+    :doc:`/methods/random_fields`.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.95, 0.9, 0.9], [1, 2, 2])
+    >>> video = kf.FieldStream(model, (64, 64), seed=7)
+    >>> frame0, frame1 = next(video), next(video)
+    >>> video.take(3).shape, video.time
+    ((3, 64, 64), 5)
     """
 
     def __init__(
@@ -90,11 +130,28 @@ class FieldStream:
             )
 
     def next_frame(self, noise: npt.ArrayLike | None = None) -> np.ndarray:
-        """The next frame; `noise` optionally supplies its driving noise η_t (standard
-        normal, shape `frame_shape`) instead of the seeded stream. ValueError (the stream
-        unchanged) for given noise whose frame would leave what the stream can carry: non-finite,
-        or beyond :func:`kalmanfield.field.stream_state.history_limit` (~a quarter of the dtype's
-        largest number, less for a slowly decaying time recursion)."""
+        """The next frame.
+
+        Parameters
+        ----------
+        noise : array_like, optional
+            The frame's driving noise η_t (standard normal, shape `frame_shape`) instead of
+            the seeded stream.
+
+        Returns
+        -------
+        numpy.ndarray
+            The frame, read-only.
+
+        Raises
+        ------
+        ValueError
+            Given noise of the wrong shape or not finite, or whose frame would leave what the
+            stream can carry (about a quarter of the dtype's largest number, less for a
+            slowly decaying time recursion); the stream is then unchanged.
+        RuntimeError
+            Another thread is drawing from the stream.
+        """
         given = None if noise is None else finite_noise(noise, self.frame_shape)
         self._acquire()
         try:
@@ -115,9 +172,29 @@ class FieldStream:
         return frame
 
     def take(self, count: int) -> np.ndarray:
-        """The next `count` frames stacked into an array of shape (count, *frame_shape).
-        MemoryError before drawing any frame when the stack would not fit in memory; on any
-        error the stream is left where it was (no frame lost)."""
+        """The next frames, stacked.
+
+        Parameters
+        ----------
+        count : int
+            Number of frames.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(count, *frame_shape)``, writable.
+
+        Raises
+        ------
+        MemoryError
+            The stack would not fit in memory (raised before any frame is drawn).
+        RuntimeError
+            Another thread is drawing from the stream.
+
+        Notes
+        -----
+        On any error the stream is left where it was (no frame lost).
+        """
         count = positive_int(count, "count")
         shape = (count, *self.frame_shape)
         check_memory(shape, self.dtype)

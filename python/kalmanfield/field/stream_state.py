@@ -23,14 +23,14 @@ def history_limit(model: ARFieldModel, dtype: np.dtype, time: int) -> float:
     recursion's response to any history within ±limit stays within a quarter of the dtype's
     largest number at every later frame (the rest is room for the innovations).
 
-    The response to the last n frames x_{-1..-n} (stationary part, ρ and n of the time axis)
-    solves (1 − ρz⁻¹)ⁿ x = 0, so x_t = ρ^t Σ_j ρ^j x_{-j} L_j(t), L_j the Lagrange basis on the
-    nodes −1..−n. For t ≥ 0 the sign of L_j(t) is (−1)^{j−1}: the worst history alternates in
-    sign and reaches G = sup_t ρ^t Σ_j ρ^j |L_j(t)|, a log-concave function of t (its
-    polynomial part has its n − 1 roots in (−n, −1)) with its peak below t = (n − 1)/(−ln ρ):
-    a ternary search finds it (ρ → 1 with n = 4 gives G ~ (3/(e(1 − ρ)))³/3!). Before frame n
-    the boundary recursion (SPEC §1.3) feeds the stationary one; its gains multiply G. The
-    limit is max / (4 max(G, 1)), so 1e308 is never carried."""
+    The response to the last n frames x_{-1..-n} (stationary part, ρ and n of the time axis) solves
+    (1 − ρz⁻¹)ⁿ x = 0, so x_t = ρ^t Σ_j ρ^j x_{-j} L_j(t), L_j the Lagrange basis on the nodes
+    −1..−n. For t ≥ 0 the sign of L_j(t) is (−1)^{j−1}: the worst history alternates in sign and
+    reaches G = sup_t ρ^t Σ_j ρ^j |L_j(t)|, a log-concave function of t (its polynomial part has its
+    n − 1 roots in (−n, −1)) with its peak below t = (n − 1)/(−ln ρ): a ternary search finds it (ρ →
+    1 with n = 4 gives G ~ (3/(e(1 − ρ)))³/3!). Before frame n the boundary recursion (method page
+    *Random fields*, §1.3) feeds the stationary one; its gains multiply G. The limit is max / (4
+    max(G, 1)), so 1e308 is never carried."""
     return _history_limit(model, np.dtype(dtype).str, min(time, model.order[0]))
 
 

@@ -1,4 +1,5 @@
-"""Identification of separable multiple-root AR field models from data (SPEC §1.6)."""
+"""Identification of separable multiple-root AR field models from data (method page
+*Identification*, §1.6)."""
 
 from __future__ import annotations
 
@@ -26,8 +27,34 @@ _WHITENESS_LAGS = 10
 
 @dataclass(frozen=True)
 class WhitenessTest:
-    """Box–Pierce test of the residual along one axis: Q = Σ_{h=1..L} N_h r_h², χ²_L under
-    whiteness (N_h = number of residual pairs at lag h)."""
+    """Box–Pierce whiteness test of the whitened residual along one axis.
+
+    Q = Σ_{h=1..L} N_h r_h², with r_h the residual's correlation at lag h and N_h its number
+    of pairs, is χ²_L under whiteness.
+
+    Parameters
+    ----------
+    statistic : float
+        Q.
+    dof : int
+        L, the degrees of freedom (the lags tested).
+    pvalue : float
+        P(χ²_L ≥ Q).
+    residual_correlation : numpy.ndarray
+        The residual's correlations r_1..r_L.
+
+    See Also
+    --------
+    identify : Fills one per modelled axis, in ``IdentifiedModel.fits``.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel(0.8, [1, 1]).sample((256, 256), seed=2)
+    >>> test = kf.identify(x).fits[0].whiteness
+    >>> test.dof, bool(test.pvalue > 0.001)
+    (10, True)
+    """
 
     statistic: float
     dof: int
@@ -37,7 +64,47 @@ class WhitenessTest:
 
 @dataclass(frozen=True)
 class AxisFit:
-    """The fit of one data axis: every candidate multiplicity and the chosen one."""
+    """The fit of one data axis: every candidate multiplicity and the chosen one.
+
+    Parameters
+    ----------
+    axis : int
+        The data axis.
+    order : int
+        The chosen multiplicity n.
+    rho : float
+        The chosen ρ.
+    candidate_orders : numpy.ndarray
+        The multiplicities tried, 1..max_order.
+    candidate_rho : numpy.ndarray
+        The best ρ of each candidate.
+    innovation_variance : numpy.ndarray
+        The σ̂²_e of each candidate (the pooled one-step prediction error variance).
+    criterion : numpy.ndarray
+        N ln σ̂²_e of each candidate (the least wins).
+    pairs : int
+        N, the number of prediction errors pooled.
+    lags : numpy.ndarray
+        Lags 0..16 (fewer on short axes) of the correlations below.
+    sample_correlation : numpy.ndarray
+        The data's correlation at `lags`.
+    fitted_correlation : numpy.ndarray
+        The fitted model's correlation at `lags`.
+    whiteness : WhitenessTest
+        The residual's whiteness test.
+
+    See Also
+    --------
+    identify : Fills one per modelled axis, in ``IdentifiedModel.fits``.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel([0.9, 0.7], [2, 1]).sample((256, 256), seed=1)
+    >>> rows = kf.identify(x).fits[0]
+    >>> rows.axis, rows.order, rows.candidate_orders.tolist()
+    (0, 2, [1, 2, 3, 4])
+    """
 
     axis: int
     order: int
@@ -55,7 +122,35 @@ class AxisFit:
 
 @dataclass(frozen=True)
 class IdentifiedModel:
-    """Result of :func:`identify`: ``model`` plus the diagnostics of every axis."""
+    """Result of :func:`identify`: the fitted model and the diagnostics of every axis.
+
+    Parameters
+    ----------
+    model : ARFieldModel
+        The fitted model, one axis per modelled data axis.
+    mean : float
+        Mean of the valid pixels.
+    variance : float
+        The field variance σ², the sample variance corrected for the bias of a correlated sample.
+    sample_variance : float
+        The plain sample variance s² of the valid pixels.
+    axes : tuple of int
+        The data axes that carry the model.
+    fits : tuple of AxisFit
+        The fit of each modelled axis.
+
+    See Also
+    --------
+    identify : Makes it.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel([0.9, 0.7], [2, 1]).sample((256, 256), seed=1)
+    >>> fit = kf.identify(x)
+    >>> fit.order, fit.fits[1].order
+    ((2, 1), 1)
+    """
 
     model: ARFieldModel
     mean: float
@@ -66,16 +161,22 @@ class IdentifiedModel:
 
     @property
     def rho(self) -> tuple[float, ...]:
-        """ρ per modelled axis."""
+        """The ρ of each modelled axis (a tuple)."""
         return self.model.rho
 
     @property
     def order(self) -> tuple[int, ...]:
-        """Multiplicity n per modelled axis."""
+        """The multiplicity n of each modelled axis (a tuple)."""
         return self.model.order
 
     def summary(self) -> str:
-        """A text table: per axis the criterion of every candidate n and the tests."""
+        """A text table of the fit: per axis the criterion of every candidate n and the test.
+
+        Returns
+        -------
+        str
+            One line for the model, one per axis.
+        """
         lines = [f"{self.model!r}, mean {self.mean:.6g}"]
         for fit in self.fits:
             crit = ", ".join(
@@ -90,7 +191,18 @@ class IdentifiedModel:
         return "\n".join(lines)
 
     def plot(self, axes=None):
-        """Sample vs fitted correlation per axis (matplotlib); returns the axes."""
+        """Plot the sample against the fitted correlation of every axis (matplotlib).
+
+        Parameters
+        ----------
+        axes : array of matplotlib.axes.Axes, optional
+            One Axes per modelled axis (default: a new figure).
+
+        Returns
+        -------
+        numpy.ndarray
+            The Axes drawn on.
+        """
         import matplotlib.pyplot as plt
 
         if axes is None:
@@ -113,32 +225,71 @@ def identify(
     mask: npt.ArrayLike | None = None,
     threads: int | None = None,
 ) -> IdentifiedModel:
-    """Identify the separable multiple-root model (ρ_k, n_k per axis, σ², mean) of an image
-    or a stack (SPEC §1.6).
+    """Identify the separable multiple-root model of an image or a stack.
 
-    Method (per modelled axis k; every line along k of a separable field is a 1-D AR(n_k)
-    sequence with root 1/ρ_k): for each candidate n = 1..max_order, ρ minimises the sum of
-    squared one-step prediction errors e = (1 - ρ z⁻¹)ⁿ x over all lines (conditional
-    Gaussian likelihood), computed from the Gram of the differences D⁰x…Dᴹx (Rust kernel;
-    see ``difference_gram``); the criterion is N ln σ̂_e²(n) (−2 log-likelihood up to a
-    constant). Every candidate has the same number of parameters, so AIC and BIC choose the
-    same n: the one of least criterion. mean = mean of the valid pixels; σ² = the sample
-    variance s² (kept as ``sample_variance``) divided by 1 - R̄, R̄ the fitted correlation
-    averaged over all pixel pairs of the grid: s² is biased low by exactly that factor when
-    the correlation length is not small against the image (ρ → 1). σ² is the least precise
-    output for ρ → 1 (a 256² field with ρ = 0.98, n = 4 holds few independent samples); the
-    per-axis innovation variances σ̂_e² are in ``fits``.
+    Per modelled axis: the multiplicity n and ρ by likelihood, then σ² and the mean; with
+    diagnostics (every candidate's criterion, sample against fitted correlation, a
+    whiteness test of the residual).
 
-    data : 1-D/2-D/3-D array-like (for stacks the time axis first); uint8/uint16/int/float;
-        NaN, infinite, ``numpy.ma``-masked pixels and ``mask`` (True = leave out) are
-        missing data: every difference or lag touching one is skipped.
-    max_order : highest multiplicity tried (1..8).
-    axes : the data axes that carry the model (default all, in order); the other axes hold
-        independent replicates (e.g. colour channels or independent images).
+    Parameters
+    ----------
+    data : array_like
+        1-D, 2-D or 3-D data (a stack has its time axis first); uint8, uint16, int or float.
+        NaN, infinite and ``numpy.ma``-masked pixels are missing: every difference or lag
+        touching one is skipped.
+    max_order : int, default 4
+        Highest multiplicity tried (1..8).
+    axes : sequence of int, optional
+        The data axes that carry the model (default all, in order); the other axes hold
+        independent replicates (colour channels, independent images).
+    mask : array_like of bool, optional
+        True = leave the pixel out (the ``numpy.ma`` convention).
+    threads : int, optional
+        Number of threads (None: all cores).
 
-    Diagnostics per axis (``fits``): candidate ρ, σ̂_e² and criterion for every n; sample vs
-    fitted correlation for lags 0..16; a Box–Pierce whiteness test of the residual
-    Π_k (1 - ρ_k z_k⁻¹)^{n_k} x along that axis.
+    Returns
+    -------
+    IdentifiedModel
+        The model (``.model``) and the diagnostics of every axis (``.fits``).
+
+    Raises
+    ------
+    ValueError
+        Data that are not 1-D to 3-D, constant (overall or along an axis), without a valid
+        pixel, too short along an axis for `max_order`, or whose variance is beyond
+        float64; bad `axes` or `mask`.
+    TypeError
+        Data of bool, complex or non-numeric dtype; axes that are not integers.
+
+    Warns
+    -----
+    RuntimeWarning
+        ρ sits at the edge of (0, 1) along an axis: the data look like a trend or white
+        noise there.
+
+    Notes
+    -----
+    Every line of a separable field along axis k is a 1-D AR(n_k) sequence with root
+    1/ρ_k. For each candidate n, ρ minimises the pooled one-step prediction error of
+    (1 − ρ z⁻¹)ⁿ over all lines; the n of least N ln σ̂²_e wins. σ² is the sample variance
+    divided by 1 − R̄, R̄ the fitted correlation averaged over all pixel pairs: the exact
+    correction of its bias when the correlation length is not small against the data. The
+    method, and why it replaces the source's route, is §1.6 of
+    :doc:`/methods/identification`.
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, section 2.4 ([P] in :doc:`/references`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel([0.9, 0.7], [2, 1]).sample((256, 256), seed=1)
+    >>> fit = kf.identify(x)
+    >>> fit.order
+    (2, 1)
+    >>> [round(r, 2) for r in fit.rho]
+    [0.9, 0.71]
     """
     values, valid = observed(data)
     if mask is not None:

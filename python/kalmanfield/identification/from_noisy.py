@@ -1,5 +1,5 @@
-"""A field model and the white-noise level from a noisy image alone (SPEC §1.6, §2): the
-model behind :func:`kalmanfield.denoise` when none is given."""
+"""A field model and the white-noise level from a noisy image alone (method page
+*Denoising*): the model behind :func:`kalmanfield.denoise` when none is given."""
 
 from __future__ import annotations
 
@@ -16,15 +16,51 @@ _LAGS = 12
 
 
 def model_from_noisy(image: npt.ArrayLike, max_order: int = 4) -> tuple[ARFieldModel, float, float]:
-    """(model, mean, noise variance) of z = x + θ, θ white, from the image alone.
+    """Fit a field model and the white-noise variance to a noisy image z = x + θ.
 
-    White noise only adds to lag 0 of the autocovariance, so per axis (rows, columns) the
-    model's σ² R_{n,ρ}(h) is fitted by least squares to the sample autocovariance at lags
-    h = 1..12 (pooled over all lines, Rust kernel), for every n = 1..max_order and ρ; the best
-    (n, ρ) per axis wins, σ² is the mean of the per-axis fits and the noise variance is the
-    lag-0 autocovariance minus σ², floored at 0 (a smooth, noise-free image can give the
-    fit more variance than the sample holds). ``identify`` is the better tool for noise-free data.
-    NaN pixels are missing: left out of the mean and of every lagged product.
+    Parameters
+    ----------
+    image : array_like
+        An image (H, W) or a stack (F, H, W); NaN pixels are missing (left out of the mean
+        and of every lagged product).
+    max_order : int, default 4
+        Highest multiplicity tried per axis.
+
+    Returns
+    -------
+    model : ARFieldModel
+        The 2-axis model of x (rows, columns).
+    mean : float
+        Mean of the observed pixels.
+    noise_var : float
+        Estimated σ_θ² (≥ 0).
+
+    Raises
+    ------
+    ValueError
+        A constant image, an image without observed pixels, fewer than 3 pixels per axis,
+        no positive correlation along an axis, a variance beyond float64.
+
+    See Also
+    --------
+    identify : The better tool for noise-free data.
+
+    Notes
+    -----
+    White noise adds to lag 0 of the autocovariance only, so per axis the model's
+    σ² R_{n,ρ}(h) is fitted by least squares to the sample autocovariance at lags 1..12;
+    σ² is the mean of the per-axis fits and σ_θ² the lag-0 autocovariance minus σ²,
+    floored at 0. See :doc:`/methods/denoising`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel([0.9, 0.7], [2, 1]).sample((256, 256), seed=1)
+    >>> z = x + np.random.default_rng(0).normal(0, 0.5, x.shape)
+    >>> model, mean, noise_var = kf.model_from_noisy(z)
+    >>> model.order, round(noise_var, 2)
+    ((2, 1), 0.21)
     """
     z = images(image, missing=True)
     max_order = positive_int(max_order, "max_order")

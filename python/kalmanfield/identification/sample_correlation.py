@@ -1,4 +1,5 @@
-"""Sample correlation function of 1-D/2-D/3-D data with missing pixels (SPEC §1.6)."""
+"""Sample correlation function of 1-D/2-D/3-D data with missing pixels (method page
+*Identification*, §1.6)."""
 
 from __future__ import annotations
 
@@ -21,22 +22,47 @@ def sample_correlation(
     *,
     estimator: Literal["unbiased", "biased"] = "unbiased",
 ) -> np.ndarray:
-    """Normalised sample correlation R̂(h̄) = Ĉ(h̄)/Ĉ(0̄) for every lag |h_k| ≤ max_lag_k.
+    """Normalised sample correlation R̂(h̄) = Ĉ(h̄)/Ĉ(0̄) for every lag with ``|h_k| ≤ L_k``.
 
-    The mean of the valid pixels is removed, then Ĉ(h̄) = Σ_ī x_ī x_{ī+h̄} / N(h̄), the sum over
-    the pairs where both pixels are valid (FFT-based: zero-padded transforms of the data and
-    of the validity mask, so missing pixels are excluded exactly).
+    Parameters
+    ----------
+    data : array_like
+        1-D, 2-D or 3-D data (uint8, uint16, int or float); NaN and ``numpy.ma``-masked
+        pixels are missing.
+    max_lag : int or sequence of int
+        L_k per axis (one int for all), 0 ≤ L_k < ``data.shape[k]``.
+    mask : array_like of bool, optional
+        True = leave the pixel out.
+    estimator : {"unbiased", "biased"}, default "unbiased"
+        "unbiased" divides each lag by its own number of valid pairs N(h̄); "biased" by the
+        number of valid pixels (positive semi-definite, shrinks long lags toward 0).
 
-    estimator : "unbiased" (default) divides each lag by its own number of pairs N(h̄);
-        "biased" divides every lag by the number of valid pixels (a positive semi-definite
-        estimate that shrinks long lags toward 0).
+    Returns
+    -------
+    numpy.ndarray
+        Shape (2L_1 + 1, …, 2L_d + 1); entry [L_1 + h_1, …, L_d + h_d] is lag h̄, so the
+        centre is 1. Lags without a valid pair are NaN.
 
-    Returns an array of shape (2L_1+1, …, 2L_d+1); entry [L_1 + h_1, …, L_d + h_d] is lag h̄
-    (so the centre is 1). Lags without any valid pair are NaN.
+    Raises
+    ------
+    ValueError
+        Data that are not 1-D to 3-D, constant or without a valid pixel; lags out of range.
+    TypeError
+        Lags that are not integers.
 
-    data : 1-D, 2-D or 3-D array-like (uint8/uint16/int/float; NaN, ``numpy.ma`` masks and
-        `mask` (True = leave out) mark missing pixels). max_lag : int or one int per axis,
-        0 ≤ L_k < data.shape[k].
+    Notes
+    -----
+    The mean of the valid pixels is removed, then Ĉ(h̄) = Σ_ī x_ī x_{ī+h̄} / N(h̄) over the
+    pairs of valid pixels, by zero-padded FFTs of the data and of the validity mask, so
+    missing pixels are excluded exactly (§1.6 of :doc:`/methods/identification`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel(0.7, [1, 1]).sample((256, 256), seed=1)
+    >>> r = kf.sample_correlation(x, max_lag=2)
+    >>> r.shape, float(r[2, 2])
+    ((5, 5), 1.0)
     """
     values, valid = observed(data, mask)
     if not 1 <= values.ndim <= 3:

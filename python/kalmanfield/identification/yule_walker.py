@@ -1,5 +1,5 @@
 """General (not necessarily separable) 2-D autoregression by the generalised Yule–Walker
-system (SPEC §1.6, [P 2.24–2.27])."""
+system (method page *Identification*, §1.6; [P 2.24–2.27])."""
 
 from __future__ import annotations
 
@@ -16,13 +16,33 @@ from .sample_correlation import sample_correlation
 
 @dataclass(frozen=True)
 class YuleWalkerModel:
-    """Σ_{i≤n_y, j≤n_x} α_ij x_{k-i, l-j} = β ξ_kl, ξ white N(0, 1), α_00 = 1 (SPEC §1.6).
+    """A general 2-D quarter-plane autoregression Σ_{i≤n_y, j≤n_x} α_ij x_{k−i, l−j} = β ξ_kl.
 
-    alpha : (n_y+1, n_x+1) template, α_00 = 1 (the sign convention of
-        ``ARFieldModel.coefficients()``: for a separable field the two agree).
-    beta : innovation standard deviation, β² = Σ Σ α_ij α_pq C(p-i, q-j) [P 2.27].
-    variance : σ_x², the sample variance of the valid pixels.
-    mean : the mean of the valid pixels.
+    ξ is white N(0, 1) and α_00 = 1.
+
+    Parameters
+    ----------
+    alpha : numpy.ndarray
+        The (n_y + 1, n_x + 1) template, α_00 = 1, in the sign convention of
+        :meth:`ARFieldModel.coefficients` (for a separable field the two agree).
+    beta : float
+        Innovation standard deviation, β² = Σ Σ α_ij α_pq C(p − i, q − j) [P 2.27].
+    variance : float
+        The variance σ_x², the sample variance of the valid pixels.
+    mean : float
+        Mean of the valid pixels.
+
+    See Also
+    --------
+    yule_walker : Makes it from an image.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel(0.7, [1, 1]).sample((256, 256), seed=1)
+    >>> fit = kf.yule_walker(x, (1, 1))
+    >>> fit.predict(x).shape  # NaN on the first row and column
+    (256, 256)
     """
 
     alpha: np.ndarray
@@ -31,10 +51,24 @@ class YuleWalkerModel:
     mean: float
 
     def predict(self, image: npt.ArrayLike) -> np.ndarray:
-        """One-step (quarter-plane) prediction x̂_kl = mean - Σ_{(i,j)≠0} α_ij (x - mean)_{k-i,l-j};
-        NaN where the template leaves the image (everywhere on an image smaller than it) or
-        touches a NaN (missing) pixel. Infinite pixels, and predictions that overflow
-        float64, are refused (ValueError)."""
+        """One-step quarter-plane prediction x̂_kl = mean − Σ_{(i,j)≠0} α_ij (x − mean)_{k−i,l−j}.
+
+        Parameters
+        ----------
+        image : array_like
+            A 2-D image; NaN pixels are missing.
+
+        Returns
+        -------
+        numpy.ndarray
+            The prediction, of the image's shape; NaN where the template leaves the image
+            or touches a missing pixel.
+
+        Raises
+        ------
+        ValueError
+            An image that is not 2-D, infinite pixels, a prediction that overflows float64.
+        """
         x = real_array(image, "image")
         if x.ndim != 2:
             raise ValueError(f"image must be 2-D, got {x.ndim}-D")
@@ -71,11 +105,53 @@ def yule_walker(
     order: tuple[int, int] | Sequence[int] = (1, 1),
     mask: npt.ArrayLike | None = None,
 ) -> YuleWalkerModel:
-    """Fit the general 2-D autoregression of template (n_y+1)×(n_x+1) to an image.
+    """Fit a general 2-D autoregression of template (n_y + 1) × (n_x + 1) to an image.
 
-    Solves Σ_{(i,j)} α_ij C(i-s, j-t) = 0 for every (s,t) ≠ (0,0) of the template, α_00 = 1,
-    then β² = Σ Σ α_ij α_pq C(p-i, q-j) [P 2.24–2.27], with C the unbiased sample
-    autocovariance (``sample_correlation`` × variance; missing pixels excluded).
+    Parameters
+    ----------
+    image : array_like
+        A 2-D image; NaN and masked pixels are missing.
+    order : tuple of int, default (1, 1)
+        (n_y, n_x), each ≥ 0, not both 0.
+    mask : array_like of bool, optional
+        True = leave the pixel out.
+
+    Returns
+    -------
+    YuleWalkerModel
+        The template α, β, the variance and the mean.
+
+    Raises
+    ------
+    ValueError
+        An image that is not 2-D, too small for the order, with lags that have no pair of
+        observed pixels, or whose Yule–Walker system is singular.
+    TypeError
+        An order that is not a pair of integers.
+
+    See Also
+    --------
+    identify : The better tool for separable models (this system is ill-conditioned for
+        high orders on smooth images).
+
+    Notes
+    -----
+    Solves Σ_{(i,j)} α_ij C(i − s, j − t) = 0 for every (s, t) ≠ (0, 0) of the template,
+    then β² = Σ Σ α_ij α_pq C(p − i, q − j), with C the unbiased sample autocovariance
+    (§1.6 of :doc:`/methods/identification`).
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, eqs. 2.24–2.27 ([P] in
+       :doc:`/references`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> x = kf.ARFieldModel(0.7, [1, 1]).sample((256, 256), seed=1)
+    >>> kf.yule_walker(x, (1, 1)).alpha.round(1)
+    array([[ 1. , -0.7],
+           [-0.7,  0.5]])
     """
     n_y, n_x = _template_order(order)
     values, valid = observed(image, mask, "image")

@@ -1,4 +1,5 @@
-"""What the row filters (SPEC §2) share: argument checks and the common Python front."""
+"""What the row filters (method page *Row filters*) share: argument checks and the common
+Python front."""
 
 from __future__ import annotations
 
@@ -102,24 +103,42 @@ class RowFilter:
 
     @property
     def noise_var(self) -> float:
-        """σ_θ²."""
+        """The observation noise variance σ_θ²."""
         return self._noise_var
 
     @property
     def width(self) -> int:
-        """Row length W."""
+        """The row length W."""
         return self._width
 
     @property
     def smooth(self) -> bool:
-        """Whether the RTS pass over the rows runs."""
+        """Whether the RTS smoothing pass over the rows runs."""
         return self._smooth
 
     def filter(self, z: npt.ArrayLike, *, out: np.ndarray | None = None) -> np.ndarray:
-        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). Returns float64 of z's shape, or `out` (see :func:`output_array`) filled
-        with it. NaN pixels, and pixels with |z − mean| > 2**1000 ≈ 1e301 (whose sums would
-        leave float64), are refused (ValueError)."""
+        """Estimate x from z, one image or a stack of frames.
+
+        Parameters
+        ----------
+        z : array_like
+            An image (H, W) or a stack (F, H, W) of width W (frames in parallel, GIL
+            released).
+        out : numpy.ndarray, optional
+            Destination: a writeable, C-contiguous float64 array of z's shape sharing no
+            memory with z (a buffer reused over a stream of frames).
+
+        Returns
+        -------
+        numpy.ndarray
+            The estimate, float64 of z's shape (`out` when given).
+
+        Raises
+        ------
+        ValueError
+            Images of the wrong width or dimension, NaN or infinite pixels, pixels with
+            ``abs(z - mean) > 2**1000``, a bad `out`.
+        """
         return self._filter_checked(images(z, self._width), out=out)
 
     def _filter_checked(

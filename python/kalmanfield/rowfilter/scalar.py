@@ -1,4 +1,5 @@
-"""The quasi-optimal row filter: O(width) work per row (SPEC §2.3, generalised)."""
+"""The quasi-optimal row filter: O(width) work per row (method page *Row filters*, §2.3,
+generalised)."""
 
 from __future__ import annotations
 
@@ -47,97 +48,83 @@ _MIN_ROW_MODELS = 16
 
 
 class ScalarRowFilter(RowFilter):
-    """Quasi-optimal Kalman filter of z = x + θ row by row (SPEC §2.3), for every
-    multiplicity (n_y, n_x) ≤ 4, within ~2 % of :class:`VectorRowFilter` (see the README's
-    loss table).
+    """Quasi-optimal Kalman filter of z = x + θ row by row, O(W) work per row.
 
-    SPEC §2.3 replaces the optimal row update — a Wiener estimate of the prediction error
-    from the innovation — by a filter + smoother along the row with an AR model of the
-    prediction error fitted to the optimal filter's P_e (with the γ_{ℓ+1} fix). The source's
-    version models only the current row's error with an AR(1) and loses 21–35 % for (2,2);
-    here the modelled vector is the prediction error of all n_y rows of the state (so older
-    rows are corrected too), it follows a block AR(m) along the row with m = `ar_order`,
-    and the filter + smoother along the row becomes one banded SPD solve of half-bandwidth
-    n_y(m+1) − 1: O(W n_y² m) per row. Default m: max(n_x, 2) (at most 8) for n_y ≥ 2
-    (within 0.4 % of m = n_x + 1 with a narrower band); 8 for n_y = 1, where nothing else in
-    the state absorbs the model's misfit and the loss grows as ρ → 1 ((1, 1) at ρ = 0.99,
-    σ_x²/σ_θ² = 3: +10.7 % with m = 2, +1.4 % with m = 8; m = 8 is never worse on the
-    README's grids, and the band b = 8 costs 1.6× the time of m = 2, 4× with weighted rows).
-    m = 1 is the source's scheme for (1, 1): up to +4.2 % on the issue's grid.
-    The model follows the optimal P_e,k down the rows: refitted whenever the band has drifted
-    from the one it was fitted to by more than 0.1 % of the band of P_e − Q (the part that
-    changes from row to row), and frozen once the band has settled (the geometric tail of
-    its row-to-row changes below 0.1 % on that scale; at most 64 models, down to 16 for
-    rows whose models would take over 1 GiB, then the last one serves); rows 1..n_y use the
-    exact stationary prior. For n_y ≥ 3 at σ_θ² ≲ 1e-16 σ_x² their systems
-    Λ + Σ h hᵀ/σ_θ² (h dense rows of the whitening's L) do not factor in float64: a
-    ValueError at construction (:class:`VectorRowFilter` handles such noise).
+    The optimal row update is replaced by a filter and smoother along the row with a block
+    AR(m) model of the prediction error of the whole state, fitted to the optimal filter's:
+    one banded solve per row. Within +0.34 % of :class:`VectorRowFilter`'s MSE, and
+    smoothed within +0.65 % of :func:`wiener_bound`, on the 72 cases of the benchmark grid.
 
-    At high SNR (σ_x²/σ_θ² ≥ 100, beyond the issue's grid) with ρ ≥ 0.95 the default band
-    of n_y = 2 loses more (up to +2.9 % causal, +5.3 % smoothed for (2, 2) at ρ = 0.99;
-    README, "High SNR"); ar_order = max(n_x, 2) + 2 cuts that to +1.5 % / +2.9 %.
+    Parameters
+    ----------
+    model : ARFieldModel
+        2-axis field model of x (axis 0 = rows), row multiplicity n_y ≤ 4.
+    noise_var : float
+        Variance σ_θ² of the white observation noise θ.
+    width : int
+        Row length W of the images.
+    ar_order : int, optional
+        Order m of the block AR model along the row, 1..8 (default: 8 for n_y = 1,
+        max(n_x, 2) otherwise). ``ar_order=1`` with a (1,1) model is the source's scheme.
+    smooth : bool, default False
+        Add the RTS smoothing pass over the rows.
+    mean : float, default 0.0
+        The field's mean (subtracted before filtering, added back).
+    threads : int, optional
+        Threads for the frames of a stack and the weighted rows (None: all cores).
+    modes : {"ends", "exact", "toeplitz"}, default "ends"
+        Where the band of the optimal prediction covariance comes from: "exact", the
+        eigenbasis of the whole row (O(W³) once); "ends", the same band with the row's
+        interior taken from the infinite row (O(W'³) once, W' of a few hundred; outputs
+        within ~1e-10 of "exact"); "toeplitz", the infinite row's alone (no eigenbasis; a
+        little worse near the row's ends).
+    row_models : {"auto", "propagated", "nominal", "implied"}, default "auto"
+        Where the row models of images with missing pixels or per-pixel noise come from:
+        "propagated", refitted row by row to the weighted systems; "nominal", the plan's
+        (fast, unfit at high SNR); "implied", propagated on every image. "auto" takes
+        "implied" for n_y ≥ 2, ρ_y ≥ 0.999 and σ_θ²/σ_x² ≤ 0.1, "propagated" otherwise.
 
-    ar_order=1 with a (1, 1) model is the source's scheme [P 3.11–3.17].
-    smooth=True adds the RTS pass over the rows (the default of :func:`denoise`): within
-    ~2 % of :func:`wiener_bound`.
-    mean : the field's mean (subtracted before filtering, added back).
-    modes : where the band of the optimal P_e comes from. "exact": the eigenbasis of the row
-        correlation, edges of the row included (O(W³) once, faer: 1.4 s at W = 2048, 11.5 s
-        at 4096). "ends" (default): the same band, spliced — the first and last W'/2
-        columns from the eigenbasis of a row of W' points, the columns in between from the
-        Fourier modes of the infinite row (the row's far end reaches a column only through
-        terms that decay with the distance). W' (:attr:`ends_span`) is the smallest power
-        of two ≥ 256 whose band 3W'/8 from its ends agrees with the infinite row's within
-        1e-11 (relative) plus 8× their rounding floor on every row of the plan; rows
-        narrower than 2W' use the whole row's eigenbasis, bit for bit as "exact", and so do
-        the few (4,4) models at ρ ≥ 0.95 whose band noise hides the splice. O(W'³)
-        once: 0.01–0.3 s at any width (W' = 256–1024 for ρ_x ≤ 0.95). Outputs agree with
-        "exact" to ≤ 1e-10 (n_y ≤ 2) and ~5e-10 (n_y = 3); for n_y = 4 at ρ ≥ 0.9 the band
-        itself is only computable to ~1e-9 and the outputs differ by up to ~2e-4 (the README
-        has the table and the reason).
-        "toeplitz": the Fourier modes alone (the band is then the same at every column; no
-        eigenbasis at all; it ignores the larger error near the row's ends — the README
-        gives the loss).
-    The per-row models are built on the first call for a given image height and cached.
-    With smooth=True the RTS pass needs nothing of the forward pass but the filtered rows
-    h · ŷ_t (written to the output) and the state after the start rows: no store of the
-    filtered states, so the working memory is a few rows whatever the height.
+    Raises
+    ------
+    TypeError
+        `model` is not an ARFieldModel.
+    ValueError
+        A model without two axes or with n_y > 4, a bad option, a noise ratio σ_θ²/σ_x²
+        outside float64's normal range, or one too small for the start rows (n_y ≥ 3 at
+        σ_θ² ≲ 1e-16 σ_x²; :class:`VectorRowFilter` handles it).
+    MemoryError
+        Rows too wide to plan on this machine.
 
-    Missing pixels and per-pixel noise: :meth:`filter` takes NaN pixels as missing
-    observations and an optional per-pixel noise variance map. They enter the row update
-    (A_t = Λ_t + Σ_ℓ h hᵀ/σ²_θ,tℓ, refactored per row) and the row models: below a missing
-    or much noisier pixel the prediction error is far larger than the nominal model's, so
-    from the first row whose weights depart from `noise_var` (a map equal to it is the
-    plain filter) every row's Λ_t is refitted to the prediction covariance the filter implies,
-    S A_{t−1}⁻¹ Sᵀ + Q (band of A_{t−1}⁻¹ by selected inversion, the same block AR fit per
-    column), and both passes use it. Measured against the exact posterior mean (16², ρ = 0.9,
-    mean of 6 samples, smoothed): 10 % missing at σ_x²/σ_θ² = 1e4: (1,1) 1.03×, (2,1),
-    (2,2), (4,1), (4,4) ≤ 1.00×, at 1e10 (4,1) 1.00×; per-pixel σ_θ² log-uniform over
-    100× either way at σ_x²/σ_θ² = 100: (2,1), (4,1) 1.00× (the nominal models gave 2–1e4×
-    there, up to divergence). Cost: O(W n_y b²) for the inversion and O(W (m n_y)³) for
-    the fits per row; the causal pass makes each row's model as it reaches the row, the
-    smoothed one keeps a row model (W n_y (b + 1) doubles) per row of the image for the RTS
-    pass. row_models="nominal" keeps the plan's models instead (the fast path of
-    :func:`denoise`; unfit at high SNR: 10 % missing at σ_x²/σ_θ² = 1e4 gave (1,1) ~6×,
-    (2,1) ~5e4×, (4,1) ~4× the posterior's MSE, smoothed; within 6 % at ≤ 100 with
-    scattered missing pixels, but not with whole missing rows: the first row missing of a
-    16² (1,1) image at ρ_y = 0.99 gave 66 σ² at σ_x²/σ_θ² = 100 and 2.8 σ² at 1, smoothed;
-    the propagated models 0.005 σ²).
+    See Also
+    --------
+    VectorRowFilter : The optimal filter, O(W²) per row.
+    denoise : Model and noise estimated from the image.
 
-    row_models="implied" propagates the models from the first predicted row on for every
-    image, the nominal ones too (each Λ_t fitted to S A_{t−1}⁻¹ Sᵀ + Q, the covariance the
-    filter itself implies, so the RTS pass pairs consistent models). Near a unit root at
-    high SNR the plan's models, fitted to the optimal filter's P_e,t, compound their misfit
-    down the rows: exact MSEs on 32² at σ_θ²/σ_x² = 0.01, ρ_x = 0.9, causal against
-    :class:`VectorRowFilter` / smoothed against :func:`wiener_bound`: (2,2) at ρ_y = 0.9999
-    +1.2 % / +5.1 % with the plan's models ("propagated"), +0.00 % / +0.00 % implied;
-    (3,3) at ρ_y = 0.9997 +1.1 % / +5.4 %, implied +0.00 % / +0.00 %; (2,2) at ρ = 0.99979
-    on both axes, 21 × 4, +19 % / +95 %, implied +0.00 %. Over 45 cases (24², n_y = 2–4,
-    ρ_y = 0.99–0.9999) never more than 0.07 % worse than the plan's models. Cost: the
-    propagated rows' (above) on every image, 14–113× the plan's time. row_models="auto"
-    (default) takes it for n_y ≥ 2, ρ_y ≥ 0.999 and σ_θ²/σ_x² ≤ 0.1 (the plan's models
-    lost up to +19 % causal, +95 % smoothed there; ≤ 0.4 % at ρ_y ≤ 0.998 or σ_θ²/σ_x² = 1,
-    24², ρ_x = 0.5–0.99) and "propagated" otherwise; :attr:`row_models` tells which.
+    Notes
+    -----
+    The per-row models are built on the first call for an image height and cached. NaN
+    pixels are missing observations and a per-pixel noise map may be given to
+    :meth:`filter`. The method (§2.3, generalised) is on :doc:`/methods/row_filters`; the
+    losses, speeds and limits on :doc:`/benchmarks/row_filters` and :doc:`/accuracy`; why
+    it is built so in :doc:`/design/row_filter_numerics`. Filters pickle (they hold no
+    per-image state).
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, eqs. 3.8–3.17, 3.34–3.36 ([P] in
+       :doc:`/references`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.9, 0.9], [2, 2])
+    >>> x = model.sample((128, 128), seed=1)
+    >>> z = x + np.random.default_rng(0).normal(0, 1, x.shape)
+    >>> filt = kf.ScalarRowFilter(model, noise_var=1.0, width=128, smooth=True)
+    >>> x_hat = filt.filter(z)
+    >>> bool(np.mean((x_hat - x) ** 2) < 0.1 * np.mean((z - x) ** 2))
+    True
     """
 
     __slots__ = ("_ar_order", "_modes", "_row_models")
@@ -181,19 +168,21 @@ class ScalarRowFilter(RowFilter):
 
     @property
     def modes(self) -> str:
-        """ "ends", "exact" or "toeplitz" (see the class docstring)."""
+        """Where the band of P_e comes from: "ends", "exact" or "toeplitz"."""
         return self._modes
 
     @property
     def row_models(self) -> str:
-        """ "propagated", "nominal" or "implied" (what "auto" chose): where the row models
-        come from (class docstring)."""
+        """The row models: "propagated", "nominal" or "implied" (what "auto" chose)."""
         return self._row_models
 
     @property
     def ends_span(self) -> int | None:
-        """W' of the exact ends when modes="ends" split the row (None: not split, the band
-        comes from the whole row's eigenbasis or from the Fourier modes alone)."""
+        """The span W' of the exact ends when modes="ends" split the row.
+
+        None when the row is not split: the band comes from the whole row's eigenbasis or
+        from the Fourier modes alone.
+        """
         return self._core.ends_span()
 
     def filter(
@@ -203,14 +192,34 @@ class ScalarRowFilter(RowFilter):
         *,
         out: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Estimate x from z: one image (H, W) or a stack (F, H, W) (frames in parallel, GIL
-        released). NaN pixels are missing observations. `noise_var`: per-pixel σ_θ² map
-        broadcastable to z's shape (> 0; inf = missing); None = the filter's noise_var.
-        Pixels with |z − mean| > 2**1000 ≈ 1e301 are refused (ValueError), and so is an
-        estimate that overflows float64 (|z − mean|·σ_x²/σ_θ² too large: pixels far from the
-        mean at a tiny noise ratio; the vector filter copes). Returns float64 of z's shape,
-        or `out` filled with it (a float64 C-contiguous array of z's shape that shares no
-        memory with z: a buffer reused over a stream of frames)."""
+        """Estimate x from z, one image or a stack of frames.
+
+        Parameters
+        ----------
+        z : array_like
+            An image (H, W) or a stack (F, H, W) of width W (frames in parallel, GIL
+            released); NaN pixels are missing observations.
+        noise_var : array_like, optional
+            Per-pixel σ_θ² map broadcastable to z's shape (> 0; inf = missing); None = the
+            filter's `noise_var` everywhere.
+        out : numpy.ndarray, optional
+            Destination: a writeable, C-contiguous float64 array of z's shape sharing no
+            memory with z (a buffer reused over a stream of frames).
+
+        Returns
+        -------
+        numpy.ndarray
+            The estimate, float64 of z's shape (`out` when given).
+
+        Raises
+        ------
+        ValueError
+            Images of the wrong width or dimension, infinite pixels, pixels with
+            ``abs(z - mean) > 2**1000``, a bad noise map, an estimate that overflows float64
+            (pixels far from the mean at a tiny noise ratio), a bad `out`.
+        MemoryError
+            The row models a smoothed weighted pass keeps would not fit.
+        """
         if noise_var is None:
             # the kernel checks every pixel in its own pass over the row: no pass here
             # unless it finds a NaN (then a missing pixel) or infinite one (refused below)
@@ -267,29 +276,37 @@ class ScalarRowFilter(RowFilter):
             return np.ascontiguousarray(1.0 / ratio)
 
     def error_variance(self, height: int, noise_var: npt.ArrayLike | None = None) -> np.ndarray:
-        """(height, W) map of the per-pixel error variance of this filter's estimate.
+        """Per-pixel error variance map of this filter's estimate.
 
-        Causal (smooth=False): the variance the filter itself assumes, h_tᵀ [A_t⁻¹]_ℓℓ h_t per
-        pixel (A_t = Λ_t + HᵀR⁻¹H, the row system it solves; [·]_ℓℓ the column's n_y × n_y
-        block, read from the band of A_t⁻¹ by selected inversion in Rust: O(W n_y b²) per
-        distinct A_t, none of the O(W³) of :class:`VectorRowFilter`). It is the optimal
-        filter's error variance on rows 1..n_y, where Λ is the stationary prior's, and after
-        them a band fit of the optimal one: on the README's 60-case grid (24², ρ ≤ 0.95) within
-        6.0 % of :meth:`VectorRowFilter.error_variance` pixel by pixel, and the filter's
-        exact MSE within −2.7 %…+0.13 % of it (mostly below: the map errs on the safe side).
+        Parameters
+        ----------
+        height : int
+            Image height H.
+        noise_var : array_like, optional
+            The per-pixel σ_θ² map the image will be filtered with (as in :meth:`filter`;
+            for an image z with NaN pixels, ``np.where(np.isnan(z), np.inf,
+            filt.noise_var)``). None: the nominal `noise_var` everywhere.
 
-        noise_var: the per-pixel σ_θ² map the image will be filtered with (as in
-        :meth:`filter`: broadcastable to (height, W), > 0, inf = missing pixel; for an image
-        z with NaN pixels, ``np.where(np.isnan(z), np.inf, self.noise_var)``); the map is then
-        that of the weighted systems the filter solves, one selected inversion per row (row
-        after row with the propagated row models, which it makes as :meth:`filter` does but
-        drops row by row, so the map needs no memory beyond itself and the weights; in
-        parallel with row_models="nominal"). None: the nominal noise_var everywhere.
+        Returns
+        -------
+        numpy.ndarray
+            The (H, W) map.
 
-        smooth=True: the smoothed covariance of this filter's model is not banded, so the map
-        returned is the optimal smoother's, :func:`wiener_error_map` (O(H³ + W³)), which the
-        smoothed filter's true MSE lies above by its gap to the Wiener bound (≤ +0.65 % in the
-        mean on the README's grid); it has no per-pixel noise variant (ValueError).
+        Raises
+        ------
+        ValueError
+            A bad noise map, or a noise map with ``smooth=True``.
+        MemoryError
+            A map larger than the machine's memory.
+
+        Notes
+        -----
+        Causal: the variance the filter itself assumes, from the band of each row system's
+        inverse by selected inversion, O(W n_y b²) per row system; exact on rows 1..n_y and
+        within a few per cent of the optimal filter's map after them, mostly on the safe
+        side. Smoothed: the optimal smoother's map, :func:`wiener_error_map`, which the
+        smoothed filter's MSE exceeds by its gap to the bound (≤ +0.65 % on the
+        benchmark grid). See :doc:`/methods/row_filters`, §2.3.
         """
         height = positive_int(height, "height")
         check_memory((height, self._width), np.dtype(np.float64))
@@ -307,8 +324,10 @@ class ScalarRowFilter(RowFilter):
 
     @property
     def ar_order(self) -> int:
-        """Order m of the block AR model along the row (the default: 8 for n_y = 1,
-        max(n_x, 2) otherwise; see the class docstring)."""
+        """The order m of the block AR model along the row.
+
+        The default is 8 for n_y = 1 and max(n_x, 2) otherwise.
+        """
         if self._ar_order is not None:
             return self._ar_order
         return _core.default_ar_order(*self._model.order)

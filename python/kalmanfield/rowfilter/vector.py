@@ -1,4 +1,4 @@
-"""The optimal vector row Kalman filter (SPEC §2.1–2.2)."""
+"""The optimal vector row Kalman filter (method page *Row filters*, §2.1–2.2)."""
 
 from __future__ import annotations
 
@@ -13,27 +13,67 @@ from .base import RowFilter
 
 
 class VectorRowFilter(RowFilter):
-    """Optimal Kalman filter of z = x + θ row by row: the state is the last n_y rows
-    (SPEC §2.2 [P 3.18–3.32]), x a field of `model` (axis 0 = rows), θ white with variance
-    `noise_var`.
+    """Optimal Kalman filter of z = x + θ row by row; the state is the last n_y rows.
 
-    Exact start (SPEC §2.2, §1.3): rows 1..n_y form one state with the exact stationary
-    prior, so every row — the first ones included — gets E[x̄_t | z̄_1..z̄_t], and
-    :meth:`error_variance` is the true per-pixel MSE. Computed exactly in the eigenbasis of
-    the row covariance V_x (every matrix of the filter is a Kronecker product with V_x, so the
-    nW-dimensional filter splits into W independent n_y-dimensional ones): O(W³) once
-    (faer eigendecomposition), then O(W²) per row (two rotations). Each mode's Riccati and
-    state run in the whitened basis of the n_y rows (L⁻¹ of their correlation R_y[:n,:n] =
-    L Lᵀ, a row read out through a row of L), where every quantity is O(1): in the rows' own
-    basis that correlation has a condition ~3e17 for n_y = 4 at ρ = 0.999 and the smoother
-    lay up to 1.27× above the bound there (README, "Numerical range"); n_y = 4 at
-    ρ = 0.9999 does not factor in float64 (ValueError).
+    With the exact stationary start every row, the first ones included, gets
+    E[x̄_t | z̄_1..z̄_t], and :meth:`error_variance` is the true per-pixel MSE; smoothed, the
+    estimate is the posterior mean given the whole image, whose error is
+    :func:`wiener_bound`.
 
-    smooth=True adds the RTS pass over the rows: with the exact start the result is the
-    posterior mean given the whole image, i.e. the best linear estimator, whose error is
-    :func:`kalmanfield.rowfilter.wiener_bound`.
+    Parameters
+    ----------
+    model : ARFieldModel
+        2-axis field model of x (axis 0 = rows), row multiplicity n_y ≤ 4.
+    noise_var : float
+        Variance σ_θ² of the white observation noise θ.
+    width : int
+        Row length W of the images.
+    smooth : bool, default False
+        Add the RTS smoothing pass over the rows.
+    mean : float, default 0.0
+        The field's mean (subtracted before filtering, added back).
+    threads : int, optional
+        Threads for the frames of a stack (None: all cores).
 
-    mean : the field's mean (subtracted before filtering, added back).
+    Raises
+    ------
+    TypeError
+        `model` is not an ARFieldModel.
+    ValueError
+        A model without two axes or with n_y > 4, a noise ratio outside float64's normal
+        range, four rows whose correlation does not factor in float64 (n_y = 4 at
+        ρ_y = 0.9999).
+    MemoryError
+        The W × W eigenbasis does not fit in memory.
+
+    See Also
+    --------
+    ScalarRowFilter : Within a fraction of a per cent of it at O(W) per row.
+    wiener_bound : The error of the smoothed filter.
+
+    Notes
+    -----
+    Every matrix of the filter is a Kronecker product with the row covariance, so in its
+    eigenbasis (O(W³) once) the filter splits into W independent n_y-dimensional ones:
+    O(W²) per row. Each mode runs in the whitened basis of its n_y rows. Method: §2.1–2.2
+    of :doc:`/methods/row_filters`; numerical range: :doc:`/accuracy`.
+
+    References
+    ----------
+    .. [1] O. V. Popov, dissertation, Ulyanovsk, 2000, eqs. 3.3–3.7, 3.18–3.32 ([P] in
+       :doc:`/references`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.9, 0.9], [2, 2])
+    >>> x = model.sample((64, 64), seed=1)
+    >>> z = x + np.random.default_rng(0).normal(0, 1, x.shape)
+    >>> filt = kf.VectorRowFilter(model, noise_var=1.0, width=64, smooth=True)
+    >>> x_hat = filt.filter(z)
+    >>> bool(abs(filt.error_variance(64).mean() - kf.wiener_bound(model, 1.0, (64, 64))) < 1e-9)
+    True
     """
 
     __slots__ = ()
@@ -54,8 +94,23 @@ class VectorRowFilter(RowFilter):
         self._core = _core.VectorRowFilter(unit, ratio, self._width)
 
     def error_variance(self, height: int) -> np.ndarray:
-        """(height, W) map of the per-pixel error variance (diag P) of this filter — of the
-        smoother when smooth=True."""
+        """Per-pixel error variance map (diag P) of this filter, of the smoother if smoothed.
+
+        Parameters
+        ----------
+        height : int
+            Image height H.
+
+        Returns
+        -------
+        numpy.ndarray
+            The (H, W) map.
+
+        Raises
+        ------
+        MemoryError
+            A map larger than the machine's memory.
+        """
         height = positive_int(height, "height")
         # the map, the kernel's per-mode map of the same size and, smoothed, each worker's
         # per-row Riccati history of one mode (two 4 × 4 matrices a row)

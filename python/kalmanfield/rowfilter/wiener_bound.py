@@ -1,4 +1,5 @@
-"""The best linear (non-causal) estimator's error on a finite grid (SPEC §2.4)."""
+"""The best linear (non-causal) estimator's error on a finite grid (method page *Row filters*,
+§2.4)."""
 
 from __future__ import annotations
 
@@ -11,12 +12,43 @@ from .base import in_image_units, row_model, unit_scale
 
 
 def wiener_bound(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> float:
-    """Mean error variance of the best linear estimator of x from z = x + θ on a grid of
-    `shape` (H, W): the floor no filter can beat.
+    """Mean error variance of the best linear estimator of x from z = x + θ on a grid.
 
-    Exact: Cov(x) = σ² R_y ⊗ R_x, so with R = UΛUᵀ per axis the posterior covariance is
-    diagonal in U_y ⊗ U_x with entries f_ab = σ²λ_aμ_b σ_θ² / (σ²λ_aμ_b + σ_θ²); the bound is
-    their mean. O(H³ + W³) (faer eigendecompositions).
+    The floor no filter can beat on that grid.
+
+    Parameters
+    ----------
+    model : ARFieldModel
+        2-axis field model of x, row multiplicity n_y ≤ 4.
+    noise_var : float
+        Variance σ_θ² of the white observation noise.
+    shape : tuple of int
+        Grid shape (H, W).
+
+    Returns
+    -------
+    float
+        The mean over the grid of the posterior error variance.
+
+    Raises
+    ------
+    ValueError
+        A model without two axes, a noise ratio outside float64's normal range.
+    MemoryError
+        The H × H and W × W eigenbases do not fit in memory.
+
+    Notes
+    -----
+    Cov(x) = σ² R_y ⊗ R_x, so with R = U Λ Uᵀ per axis the posterior covariance is diagonal
+    in U_y ⊗ U_x, with entries σ²λ_a μ_b σ_θ² / (σ²λ_a μ_b + σ_θ²): O(H³ + W³) (§2.4 of
+    :doc:`/methods/row_filters`).
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.9, 0.9], [1, 1])
+    >>> round(kf.wiener_bound(model, 1.0, (100, 100)), 4)
+    0.1245
     """
     h, w = _checked_grid(shape)
     unit, ratio, sigma = _unit_parameters(model, noise_var)
@@ -24,7 +56,38 @@ def wiener_bound(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> flo
 
 
 def wiener_error_map(model: ARFieldModel, noise_var: float, shape: ShapeLike) -> np.ndarray:
-    """Per-pixel error variance of the best linear estimator: (U_y∘U_y) F (U_x∘U_x)ᵀ."""
+    """Per-pixel error variance of the best linear estimator of x from z = x + θ.
+
+    Parameters
+    ----------
+    model : ARFieldModel
+        2-axis field model of x, row multiplicity n_y ≤ 4.
+    noise_var : float
+        Variance σ_θ² of the white observation noise.
+    shape : tuple of int
+        Grid shape (H, W).
+
+    Returns
+    -------
+    numpy.ndarray
+        The (H, W) map, (U_y∘U_y) F (U_x∘U_x)ᵀ in the notation of :func:`wiener_bound`;
+        its mean is the bound.
+
+    Raises
+    ------
+    ValueError
+        A model without two axes, a noise ratio outside float64's normal range.
+    MemoryError
+        The map or the eigenbases do not fit in memory.
+
+    Examples
+    --------
+    >>> import kalmanfield as kf
+    >>> model = kf.ARFieldModel([0.9, 0.9], [1, 1])
+    >>> error = kf.wiener_error_map(model, 1.0, (100, 100))
+    >>> bool(error[0, 0] > error[50, 50])  # the corners see fewer neighbours
+    True
+    """
     h, w = _checked_grid(shape)
     check_memory((h, w), np.dtype(np.float64), copies=2)
     unit, ratio, sigma = _unit_parameters(model, noise_var)

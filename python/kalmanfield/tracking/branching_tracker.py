@@ -1,27 +1,8 @@
-"""Detection and tracking of moving objects by branching segment sequences (SPEC §3.1–3.3,
-source [K93]); the branching runs in Rust (``kalmanfield._core.BranchingTracker``), its twin is
+"""Detection and tracking of moving objects by branching segment sequences ([K93]); the
+branching runs in Rust (``kalmanfield._core.BranchingTracker``), its twin is
 :mod:`kalmanfield.reference.tracking.branching` (the module docstring there states every rule).
-
-Summary of the method
----------------------
-Each detection is a parameter vector z = (z_1..z_k): positions first (``n_spatial`` of them),
-then any other parameter (amplitude, area, extents…). Every parameter has its own polynomial
-Kalman filter of order ν (SPEC §3.1; process noise = white (ν+1)-th derivative of std
-``process_std``). A sequence ("hypothesis") accumulates the likelihood index I, the sum of its
-last N = ``memory`` normalised innovations (SPEC §3.2); a measurement joins a sequence only if
-the new index stays below the χ² quantile of confidence β for k·n degrees of freedom — this
-test *is* the gate. Every frame, every live sequence branches over the measurements of its
-gate, plus a "missed" branch while its run of misses stays ≤ ``max_misses``; measurements no
-confirmed sequence uses start new sequences (SPEC §3.3). Sequences are ranked by a
-log-likelihood-ratio score against clutter; five pruning rules keep the work per frame bounded
-(at most ``max_hypotheses`` continuing sequences, ``max_per_tree`` per track tree, plus at most
-``max_seeds`` new ones per frame). The final answer takes sequences greedily in decreasing
-score, never two sharing a measurement (a later one may lose up to ``max_shared`` detections,
-reported as coasted frames).
-
-Degradation under heavy clutter: the caps bound memory and time per frame; when they bind,
-confirmed sequences are kept first and the new starts are a deterministic random subset, so
-quality (not time) degrades.
+The method, every rule and every choice where the source is silent: method page *Tracking*,
+§3.1–3.3.
 """
 
 from __future__ import annotations
@@ -73,8 +54,8 @@ class BranchingTracker:
 
     Parameters
     ----------
-    n_params : int
-        k, the length of a measurement vector (at most 2**16).
+    n_params : int, default 2
+        The length k of a measurement vector (at most 2**16).
     config : TrackerConfig, optional
         The settings (default: ``TrackerConfig()``).
     names : sequence of str, optional
@@ -89,13 +70,26 @@ class BranchingTracker:
     ValueError
         A setting out of its range (the message names it).
 
+    See Also
+    --------
+    TrackerConfig : Every setting, with its default.
+    link : The tracker run over a trackpy-style detection table.
+    segment : Detections from a frame.
+
     Notes
     -----
     Configuration of the anchor benchmark (20 targets bouncing off the borders, 50 clutter
     points per frame): ``process_std=0.1, measurement_std=0.5, max_misses=3,
     maneuver_std=1.5, maneuver_prob=0.001``. The per-frame work depends on the scene only,
     not on how many frames came before. The tracker pickles: the unpickled copy resumes
-    exactly where it stopped.
+    exactly where it stopped. The method (§3.1–3.3) and the choices made where the source is
+    silent are on :doc:`/methods/tracking`.
+
+    References
+    ----------
+    .. [1] V. K. Klochko, "Detection of moving images of point and extended objects in a
+       sequence of television frames", Avtometriya, 1993, no. 1 ([K93] in
+       :doc:`/references`).
 
     Examples
     --------
@@ -131,45 +125,53 @@ class BranchingTracker:
     # ------------------------------------------------------------------ properties
     @property
     def n_params(self) -> int:
-        """k, the length of a measurement vector."""
+        """The length k of a measurement vector."""
         return len(self._names)
 
     @property
     def names(self) -> list[str]:
-        """Column names of the parameters."""
+        """The column names of the parameters (a list)."""
         return list(self._names)
 
     @property
     def config(self) -> TrackerConfig:
-        """The checked configuration (every setting concrete, one value per parameter)."""
+        """The checked configuration, every setting concrete (a TrackerConfig)."""
         return self._config
 
     @property
     def frame(self) -> int:
-        """Number of frames processed."""
+        """The number of frames processed."""
         return self._core.frame
 
     @property
     def time(self) -> float | None:
-        """Time of the last frame (None before the first)."""
+        """The time of the last frame (None before the first)."""
         return self._core.time
 
     @property
     def n_hypotheses(self) -> int:
-        """Live sequences after the last frame."""
+        """The number of live sequences after the last frame."""
         return self._core.n_hypotheses
 
     # ------------------------------------------------------------------ per frame
     def update(self, measurements: npt.ArrayLike | pd.DataFrame, time: float | None = None) -> None:
-        """Processes one frame (SPEC §3.3 step 2–3).
+        """Process one frame (§3.3, steps 2–3, of :doc:`/methods/tracking`).
 
-        ``measurements``: an (m, k) array-like of parameter vectors (any detector's output; an
-        empty frame is ``np.empty((0, k))`` or ``[]``), or a DataFrame holding the columns
-        :attr:`names`. ``time``: the frame's time (default: previous time + ``dt``; must
-        increase). NaN/inf measurements, measurements beyond ±``MAX_MEASUREMENT`` (1e150), a
-        wrong column count, a non-increasing time, a time beyond ±1e150 or a time step so long
-        that the predicted covariances overflow float64 raise ValueError before anything
-        changes.
+        Parameters
+        ----------
+        measurements : array_like or pandas.DataFrame
+            An (m, k) array of parameter vectors (any detector's output; an empty frame is
+            ``np.empty((0, k))`` or ``[]``), or a DataFrame holding the columns
+            :attr:`names`.
+        time : float, optional
+            The frame's time (default: the previous time + ``dt``); must increase.
+
+        Raises
+        ------
+        ValueError
+            NaN or infinite measurements, measurements beyond ±1e150, a wrong column count,
+            a non-increasing time, a time beyond ±1e150 or a time step so long that the
+            predicted covariances overflow float64. Nothing changes then.
         """
         k = self.n_params
         if isinstance(measurements, pd.DataFrame):
@@ -198,15 +200,27 @@ class BranchingTracker:
 
     # ------------------------------------------------------------------ answers
     def tracks(self, online: bool = False) -> pd.DataFrame:
-        """Per-frame estimates of the chosen sequences (SPEC §3.3 step 3), coasted frames
-        included.
+        """Per-frame estimates of the chosen sequences, coasted frames included.
 
-        Columns: ``frame``, ``particle``, the parameters (filtered estimates, named
-        :attr:`names`), their derivatives ``<name>_d1``…, ``detection`` (global detection id:
-        the running number of the measurement over all frames, −1 when coasted), ``coasted``,
-        ``index`` (the sliding index I, SPEC §3.2) and ``score``. ``online=True`` gives the
-        per-frame online answer instead (particle = track-tree id, decided at each frame
-        without hindsight).
+        Parameters
+        ----------
+        online : bool, default False
+            Give the per-frame online answer instead (particle = track-tree id, decided at
+            each frame without hindsight).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``frame``, ``particle``, the parameters (filtered estimates, named
+            :attr:`names`), their derivatives ``<name>_d1``…, ``detection`` (the running
+            number of the measurement over all frames, −1 when coasted), ``coasted``,
+            ``index`` (the sliding likelihood index I, §3.2) and ``score``. The online answer
+            has ``frame``, ``particle``, the parameters, ``coasted`` and ``score``.
+
+        Notes
+        -----
+        The final answer takes sequences greedily by score, never two sharing a measurement
+        (§3.3, step 3, of :doc:`/methods/tracking`).
         """
         if online:
             o = self._core.online()
@@ -232,14 +246,38 @@ class BranchingTracker:
         return pd.DataFrame(data)
 
     def stats(self) -> pd.DataFrame:
-        """Per frame: measurements, live sequences before, children formed, live after
-        pruning, new sequences, and the records the frame's bookkeeping visited (track trees,
-        pruning's per-tree and per-measurement tables, nodes scanned by a compaction): the
-        cost of each frame, which depends on the scene, not on how many frames came before."""
+        """The work of every frame so far.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per frame: ``measurements``, ``live_before`` (live sequences before),
+            ``children`` (formed), ``live`` (after pruning), ``seeds`` (new sequences) and
+            ``bookkeeping`` (records visited: track trees, pruning tables, nodes scanned by a
+            compaction). It depends on the scene, not on how many frames came before.
+        """
         return pd.DataFrame(self._core.stats(), columns=_STATS_COLUMNS)
 
     def detection_frame(self, detection: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """(frame, row within that frame's measurements) of global detection ids."""
+        """Frame and row of global detection ids.
+
+        Parameters
+        ----------
+        detection : array_like of int
+            Detection ids (the ``detection`` column of :meth:`tracks`).
+
+        Returns
+        -------
+        frame : numpy.ndarray
+            The frame of each id.
+        row : numpy.ndarray
+            Its row within that frame's measurements.
+
+        Raises
+        ------
+        ValueError
+            Ids outside [0, number of measurements so far).
+        """
         gid = np.asarray(detection, dtype=np.int64)
         offsets = self._core.frame_offsets()
         if gid.size and (gid.min() < 0 or gid.max() >= self._n_measurements()):

@@ -36,7 +36,7 @@ SELECTIONS = ("llr", "index_per_dof", "pvalue")
 
 @dataclass(frozen=True)
 class TrackerConfig:
-    """Every setting of the branching tracker (method page *Tracking*, [K93]).
+    """Every setting of the branching tracker, with its default.
 
     A setting given per parameter takes a scalar (the same for every parameter) or one value
     per parameter; :meth:`for_params` checks a configuration for k parameters and fills the
@@ -44,57 +44,69 @@ class TrackerConfig:
 
     Parameters
     ----------
-    order : int or sequence of int
-        ν per parameter (≤ 4): 1 = nearly constant velocity.
-    process_std : float or sequence of float
+    order : int or sequence of int, default 1
+        Order ν of the polynomial motion model per parameter (≤ 4): 1 = nearly constant
+        velocity.
+    process_std : float or sequence of float, default 0.1
         Std of the white (ν+1)-th derivative per parameter (px/frame² for ν = 1).
-    measurement_std : float or sequence of float
+    measurement_std : float or sequence of float, default 0.5
         Measurement noise std per parameter. The stds, ``dt``, ``max_speed`` and
         ``maneuver_std`` must be at most 1e100 (the filters square them).
-    confidence : float
-        β of the χ² index test that gates a measurement into a sequence.
-    memory : int
+    confidence : float, default 0.99
+        Confidence β of the χ² index test that gates a measurement into a sequence.
+    memory : int, default 4
         N, the index increments kept (sliding memory; 1…256).
-    max_misses : int
+    max_misses : int, default 2
         Longest run of coasted (missed) frames of a sequence.
-    dt : float
+    dt : float, default 1.0
         Frame step when :meth:`BranchingTracker.update` gets no time.
-    p_detect : float
+    p_detect : float, default 0.9
         Detection probability used by the score.
-    clutter_density : float or None
+    clutter_density : float or None, default None
         Clutter points per unit of parameter space per frame; None = estimated from the
         measurement counts and their bounding box.
-    max_speed : float
+    max_speed : float, default 6.0
         Largest speed between the first ν+1 points of a sequence (gates the start).
-    n_spatial : int or None
+    n_spatial : int or None, default None
         Parameters that are positions (the first ones); None = min(k, 2).
     n_confirm, confirm_llr, confirm_window : int, float, int or None
         A sequence is confirmed once it has ``n_confirm`` measurements and a score ≥
         ``confirm_llr``; an unconfirmed one dies ``confirm_window`` frames after its start
-        (None = n_confirm + max_misses + 1).
-    delete_llr : float or None
+        (None = n_confirm + max_misses + 1). Defaults 4, 0.0, None.
+    delete_llr : float or None, default -5.0
         An unconfirmed sequence whose score falls below it dies at once (None = time-out only,
         the literal [K93] rule).
     max_per_tree, max_hypotheses, max_seeds : int
-        Hypothesis limits: per track tree, in all, new sequences per frame.
-    max_children : int or None
+        Hypothesis limits: per track tree, in all, new sequences per frame (defaults 8,
+        20 000, 2 000).
+    max_children : int or None, default 16
         Most measurements a sequence branches on per frame (the nearest in its gate); None =
         every one, the literal [K93] rule.
-    merge_depth : int
+    merge_depth : int, default 3
         D, the last measurements that identify a sequence's future (pruning; 1…256).
-    maneuver_std : float, sequence of float or None
+    maneuver_std : float, sequence of float or None, default None
         Optional velocity-jump branch per parameter (not in [K93]): a second child per gated
         measurement with an extra velocity jump of that std.
-    maneuver_prob : float
+    maneuver_prob : float, default 0.01
         Prior probability of that jump.
     min_hits, final_llr : int or None, float
-        Filter of the final answer (None = ``n_confirm``).
-    max_shared : int
+        Filter of the final answer (None = ``n_confirm``). Defaults None, 5.0.
+    max_shared : int, default 2
         Measurements a chosen sequence may lose to better ones in the final answer.
-    selection : {"llr", "index_per_dof", "pvalue"}
+    selection : {"llr", "index_per_dof", "pvalue"}, default "llr"
         Ranking of the final answer: decreasing score, or the literal [K93] rules.
-    seed : int, numpy Generator or None
+    seed : int, numpy.random.Generator or None, default 0
         Seed of the deterministic subset of new starts beyond ``max_seeds``.
+
+    See Also
+    --------
+    BranchingTracker : Takes one, or its settings as keywords.
+
+    Notes
+    -----
+    What each setting does in the method, and the choices where the source is silent:
+    :doc:`/methods/tracking` (§3.1–3.3). A pickled tracker stores its configuration and
+    checks it at load.
 
     Examples
     --------
@@ -136,8 +148,25 @@ class TrackerConfig:
     def from_settings(
         cls, settings: dict[str, Any], caller: str = "TrackerConfig"
     ) -> TrackerConfig:
-        """A configuration from keyword settings; an unknown one is a TypeError naming
-        `caller` and the settings it accepts."""
+        """A configuration from a dict of settings.
+
+        Parameters
+        ----------
+        settings : dict
+            Setting name to value.
+        caller : str, default "TrackerConfig"
+            The name an error message gives for the caller.
+
+        Returns
+        -------
+        TrackerConfig
+            The configuration (not yet checked: see :meth:`for_params`).
+
+        Raises
+        ------
+        TypeError
+            An unknown setting (the message names `caller` and the settings it accepts).
+        """
         unknown = sorted(set(settings) - {f.name for f in dataclasses.fields(cls)})
         if unknown:
             raise TypeError(
@@ -147,19 +176,58 @@ class TrackerConfig:
         return cls(**settings)
 
     def replace(self, **settings: Any) -> TrackerConfig:
-        """A copy with some settings changed (unknown names: TypeError)."""
+        """A copy with some settings changed.
+
+        Parameters
+        ----------
+        **settings
+            Settings to change.
+
+        Returns
+        -------
+        TrackerConfig
+            The copy.
+
+        Raises
+        ------
+        TypeError
+            An unknown setting.
+        """
         if not settings:
             return self
         return TrackerConfig.from_settings({**self.as_dict(), **settings})
 
     def as_dict(self) -> dict[str, Any]:
-        """The settings as a dict (the pickled form)."""
+        """The settings as a dict (the pickled form).
+
+        Returns
+        -------
+        dict
+            Setting name to value.
+        """
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
     def for_params(self, n_params: int) -> TrackerConfig:
-        """This configuration checked for measurement vectors of `n_params` parameters:
-        per-parameter settings as tuples of k values, every default filled, the seed an int.
-        Bad settings are a ValueError or TypeError naming them."""
+        """This configuration checked for measurement vectors of `n_params` parameters.
+
+        Parameters
+        ----------
+        n_params : int
+            The length k of a measurement vector.
+
+        Returns
+        -------
+        TrackerConfig
+            Per-parameter settings as tuples of k values, every default filled, the seed an
+            int.
+
+        Raises
+        ------
+        ValueError
+            A setting out of its range (the message names it).
+        TypeError
+            A setting of the wrong type.
+        """
         k = positive_int(n_params, "n_params")
         if k > MAX_PARAMS:
             raise ValueError(f"n_params must be at most {MAX_PARAMS}, got {k}")

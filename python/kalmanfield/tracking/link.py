@@ -1,5 +1,5 @@
-"""trackpy-style linking with the branching tracker (SPEC §3.3): one call on a detection
-table."""
+"""trackpy-style linking with the branching tracker (method page *Tracking*, §3.3): one call
+on a detection table."""
 
 from __future__ import annotations
 
@@ -37,26 +37,71 @@ def link(
     progress: bool = False,
     **kwargs: Any,
 ) -> pd.DataFrame:
-    """Links detections into tracks with :class:`BranchingTracker` (SPEC §3.1–3.3).
+    """Link the detections of a table into tracks with the branching tracker.
 
-    ``detections``: a DataFrame with ``frame`` (integers within int64: ValueError otherwise),
-    the ``pos_columns`` (default x, y) and the ``features`` columns (real numbers: complex,
-    bool and string columns are a TypeError). Returns a copy with a ``particle`` column: the
-    track of each detection on a chosen confirmed sequence, −1 for the others (clutter,
-    unconfirmed).
+    Parameters
+    ----------
+    detections : pandas.DataFrame
+        A ``frame`` column (integers within int64; frames may skip, the skipped ones are
+        empty), the `pos_columns` and the `features` columns (real numbers).
+    measurement_std : float or sequence of float
+        Measurement noise std per column (positions, then features), e.g. in px.
+    process_std : float or sequence of float
+        Std of the white random acceleration per column (px/frame², times `dt`).
+    confidence : float, default 0.99
+        Confidence β of the χ² gate.
+    memory : int, default 4
+        N, the index increments kept (sliding memory).
+    max_misses : int, default 2
+        Longest run of frames a track may coast.
+    dt : float, default 1.0
+        Time between consecutive frame numbers.
+    features : sequence of str, default ()
+        Further columns tracked as parameters (amplitude, area…).
+    pos_columns : sequence of str, default ("x", "y")
+        The position columns.
+    progress : bool, default False
+        Show a tqdm progress bar.
+    **kwargs
+        Any other setting of :class:`TrackerConfig` (``order=``, ``clutter_density=``…).
 
-    The model is a nearly-constant-velocity Kalman filter per column (order 1 unless
-    ``order=`` is given): ``measurement_std`` is the position noise (px), ``process_std`` the
-    std of the white random acceleration (px/frame², times dt); scalars or one value per
-    column (positions, then features). ``memory`` = N index increments kept, ``max_misses`` =
-    longest run of frames a track may coast, ``dt`` = time between consecutive frame numbers
-    (frame numbers may skip: the skipped frames are empty). Other keywords go to
-    :class:`BranchingTracker`; ``progress=True`` shows a tqdm bar.
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of `detections` (index kept) with a ``particle`` column: the track of each
+        detection on a chosen confirmed sequence, −1 for the others (clutter,
+        unconfirmed).
 
-    Unless ``clutter_density`` is given, it is estimated once from the whole table: detections
-    per frame over the bounding box of the columns (each side at least 1), an upper bound
-    (targets included). The tracker's own running estimate would start from the tiny box of
-    the first frames and hold back the first tracks.
+    Raises
+    ------
+    TypeError
+        `detections` is not a DataFrame, a column name given as a string, complex, bool or
+        string columns, an unknown setting.
+    ValueError
+        Missing or duplicated columns, frame numbers that are not integers within int64 or
+        span far more frames than there are detections, NaN or infinite values, a setting
+        out of range.
+
+    See Also
+    --------
+    BranchingTracker : The tracker, frame by frame.
+
+    Notes
+    -----
+    The model is a polynomial Kalman filter per column (order 1, nearly constant velocity,
+    unless ``order=`` is given). Unless `clutter_density` is given it is estimated once from
+    the whole table: detections per frame over the bounding box of the columns, an upper
+    bound (targets included). Method: §3.1–3.3 of :doc:`/methods/tracking`.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> import kalmanfield as kf
+    >>> rows = [{"frame": f, "x": 10 + 1.5 * f, "y": 20.0} for f in range(10)]
+    >>> rows += [{"frame": f, "x": 40.0, "y": 5.0 + f} for f in range(10)]
+    >>> linked = kf.link(pd.DataFrame(rows), measurement_std=0.5, process_std=0.1)
+    >>> linked.groupby("particle").size().tolist()
+    [10, 10]
     """
     if not isinstance(detections, pd.DataFrame):
         raise TypeError(f"detections must be a pandas DataFrame, got {type(detections).__name__}")

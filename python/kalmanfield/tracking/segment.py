@@ -1,5 +1,5 @@
-"""Segmentation of one frame into bright spots: threshold and connected components (SPEC §3,
-[K93]); the Rust kernel ``_core.segment``."""
+"""Segmentation of one frame into bright spots: threshold and connected components (method
+page *Tracking*, §3; [K93]); the Rust kernel ``_core.segment``."""
 
 from __future__ import annotations
 
@@ -60,39 +60,66 @@ def segment(
     labels: bool = False,
     frame_no: int | None = None,
 ) -> pd.DataFrame | tuple[pd.DataFrame, np.ndarray]:
-    """Segments of a frame (SPEC §3 (segmentation of each frame, [K93])): the connected
-    components of the pixels brighter than `threshold`, one table row per segment.
+    """Segments of a frame: the connected components of the pixels above a threshold.
 
-    Definitions. A pixel is foreground iff its value v > threshold (strictly); its weight is
-    the excess w = v − threshold > 0. The pixel in row r, column c has centre x = c, y = r.
-    Foreground pixels are connected through their 4 edge neighbours (``connectivity=4``) or
-    also their 4 corner neighbours (``connectivity=8``). Per segment S:
+    Parameters
+    ----------
+    frame : array_like
+        A 2-D frame, or a 3-D stack of frames (segmented in parallel, GIL released; the
+        table then has a ``frame`` column). uint8, uint16, float32 and float64 are used as
+        they are, bool as uint8, other numeric types as float64.
+    threshold : float
+        A pixel of value v is foreground iff v > threshold; its weight is v − threshold.
+    min_area : int, default 1
+        Segments of fewer pixels are dropped.
+    connectivity : {8, 4}, default 8
+        Foreground pixels connect through their 4 edge neighbours, or also their 4 corner
+        neighbours.
+    labels : bool, default False
+        Also return the int32 label image (0 = background).
+    frame_no : int, optional
+        If given, a first column ``frame`` holding it (for a stack: it plus the index in
+        the stack), the trackpy convention.
 
-    - ``x``, ``y``: intensity-weighted centroid Σ w x / Σ w, Σ w y / Σ w;
-    - ``amplitude``: mean pixel value Σ v / |S|;
-    - ``area``: pixel count |S|;
-    - ``extent_x``, ``extent_y``: √(Σ w (x − x̄)² / Σ w) and √(Σ w (y − ȳ)² / Σ w), the RMS
-      half-size (σ for a wide Gaussian spot over a low threshold);
-    - ``bbox_x0``, ``bbox_y0``, ``bbox_x1``, ``bbox_y1``: inclusive min/max column and row;
-    - ``label``: 1..n. Segments with area < `min_area` are dropped (label 0 in the label
-      image); the others are numbered consecutively in raster order of their first pixel, and
-      the rows are in label order.
+    Returns
+    -------
+    table : pandas.DataFrame
+        One row per segment, in label order: (``frame``,) ``x``, ``y`` (centroid weighted by
+        the excess over the threshold; pixel (r, c) has centre x = c, y = r),
+        ``amplitude`` (mean pixel value), ``area`` (pixel count), ``extent_x``,
+        ``extent_y`` (RMS half-sizes √(Σ w (x − x̄)² / Σ w)), ``bbox_x0``, ``bbox_y0``,
+        ``bbox_x1``, ``bbox_y1`` (inclusive) and ``label`` (1..n in raster order of each
+        segment's first pixel). Integer columns are int64, the others float64.
+    label_image : numpy.ndarray
+        The label image, of the frame's shape; only with ``labels=True``.
 
-    frame : 2-D array-like, or a 3-D stack of frames (segmented in parallel over the frames,
-        GIL released; the table then always has the ``frame`` column: ``frame_no`` (default
-        0) plus the index in the stack). uint8, uint16, float32 and float64 are used as they
-        are; bool
-        becomes uint8; other integer types (and float16, longdouble) are converted to float64
-        (integers beyond 2⁵³ are rounded). Complex, object and string arrays are refused
-        (TypeError); NaN or infinite pixels, and pixels so large (≳ 1e300), or so far
-        above the threshold, that the segment moments overflow, are refused (ValueError).
-    threshold : finite real number. min_area : positive int. connectivity : 4 or 8.
-    labels : also return the int32 label image (same shape as `frame`, 0 = background).
-    frame_no : if given, a first column ``frame`` holding it (the trackpy convention).
+    Raises
+    ------
+    TypeError
+        Complex, object or string frames; parameters of the wrong type.
+    ValueError
+        Frames that are not 2-D or 3-D, NaN or infinite pixels, pixels so large (≳ 1e300)
+        that the segment moments overflow, a bad threshold, `min_area`, `connectivity` or
+        `frame_no`.
 
-    Returns a DataFrame with columns (frame,) x, y, amplitude, area, extent_x, extent_y,
-    bbox_x0, bbox_y0, bbox_x1, bbox_y1, label (int64 for frame, area, bbox and label;
-    float64 otherwise), or (DataFrame, label image) if `labels`.
+    See Also
+    --------
+    BranchingTracker : Tracks the segments' parameter vectors.
+
+    Notes
+    -----
+    One raster scan over runs of foreground pixels with union–find (Rust). See §3 of
+    :doc:`/methods/tracking`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import kalmanfield as kf
+    >>> frame = np.zeros((32, 32))
+    >>> frame[5:8, 10:13] = 100.0
+    >>> kf.segment(frame, threshold=25)[["x", "y", "area"]]
+          x    y  area
+    0  11.0  6.0     9
     """
     image = _frame_array(frame)
     t = real_number(threshold, "threshold")

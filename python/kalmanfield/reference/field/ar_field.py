@@ -1,4 +1,4 @@
-"""NumPy reference of the AR random-field kernels (SPEC §1.1–1.5).
+"""NumPy reference of the AR random-field kernels (method page *Random fields*, §1.1–1.5).
 
 Twin of the Rust modules axis_model, stationary_start, field_model, cascade, product_field and
 anisotropy. Written straight from the formulas, with different numerical routes where that
@@ -82,7 +82,7 @@ def _levinson_of(r: np.ndarray) -> tuple[list[np.ndarray], list[float]]:
 
 
 def boundary_recursion(rho: float, n: int) -> tuple[list[np.ndarray], np.ndarray]:
-    """Coefficients a^{(m)} and gains b_m, m = 0..n, of the stationary start (SPEC §1.3):
+    """Coefficients a^{(m)} and gains b_m, m = 0..n, of the stationary start (§1.3):
     Σ_i a_i R(i-s) = R(s), s = 1..m, b_m² = 1 - Σ_i a_i R(i)  [P 4.3, 4.4], solved order by
     order with the Levinson–Durbin recursion (as the kernel does: for ρ near 1 these Toeplitz
     systems are ill-conditioned and two different solvers would differ in the 8th digit)."""
@@ -151,7 +151,7 @@ def _recurse_axis(x: np.ndarray, axis: int, rho: float, n: int, scale: float = 1
 def sample(
     rho: Sequence[float], order: Sequence[int], sigma: float, noise: np.ndarray
 ) -> np.ndarray:
-    """x = σ L_0 ⋯ L_{N-1} ξ, each L_k the stationary-start recursion of axis k (SPEC §1.2–1.3)."""
+    """x = σ L_0 ⋯ L_{N-1} ξ, each L_k the stationary-start recursion of axis k (§1.2–1.3)."""
     x = np.asarray(noise, dtype=float)
     for axis in reversed(range(x.ndim)):
         x = _recurse_axis(x, axis, rho[axis], order[axis], sigma if axis == 0 else 1.0)
@@ -167,7 +167,7 @@ def stream_frame(
     noise: np.ndarray,
 ) -> np.ndarray:
     """Frame t of a stream (axis 0 = time) from its noise and the previous frames (most recent
-    first): a spatial field, then the time recursion at position t (SPEC §1.4)."""
+    first): a spatial field, then the time recursion at position t (§1.4)."""
     spatial = sample(rho[1:], order[1:], 1.0, noise)
     n = order[0]
     coeffs, gains = stationary_start(rho[0], n)
@@ -181,7 +181,7 @@ def stream_frame(
 def product_field(
     rho: Sequence[float], order: Sequence[int], sigma: float, noises: Sequence[np.ndarray]
 ) -> np.ndarray:
-    """x_ī = σ Π_k s^{(k)}_{i_k}, s^{(k)} the unit-variance 1-D field of axis k (SPEC §1.4)."""
+    """x_ī = σ Π_k s^{(k)}_{i_k}, s^{(k)} the unit-variance 1-D field of axis k (§1.4)."""
     out = np.full((), sigma)
     for r, n, xi in zip(rho, order, noises):
         out = np.multiply.outer(out, sample([r], [n], 1.0, xi))
@@ -204,7 +204,7 @@ def _directions(ndim: int, points: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def anisotropy(rho: Sequence[float], order: Sequence[int], points: int = 600) -> float:
-    """A_τ (SPEC §1.5): τ(u) by Gauss–Laguerre in t on R itself, sphere mean by midpoints."""
+    """A_τ (§1.5): τ(u) by Gauss–Laguerre in t on R itself, sphere mean by midpoints."""
     u, w = _directions(len(rho), points)
     nodes, weights = np.polynomial.laguerre.laggauss(64)
     lam = np.abs(u) @ np.log(1 / np.asarray(rho))

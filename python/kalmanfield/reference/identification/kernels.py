@@ -1,6 +1,6 @@
-"""NumPy reference of the identification kernels (SPEC §1.6): twins of the Rust modules
-difference_gram, lag_products and whitening, and a direct-sum sample correlation (the
-public one uses FFTs). Missing values are NaN, as in the kernels."""
+"""NumPy reference of the identification kernels (method page *Identification*, §1.6): twins of the
+Rust modules difference_gram, lag_products and whitening, and a direct-sum sample correlation
+(the public one uses FFTs). Missing values are NaN, as in the kernels."""
 
 from __future__ import annotations
 

@@ -1,16 +1,16 @@
-"""NumPy reference of the row Kalman filters for images (SPEC §2).
+"""NumPy reference of the row Kalman filters for images (method page *Row filters*, §2).
 
-Model (SPEC §2): z = x + θ on an H×W grid, x the separable AR field of SPEC §1.2–1.3 with
+Model (§2): z = x + θ on an H×W grid, x the separable AR field of *Random fields* §1.2–1.3 with
 (ρ_y, ρ_x), multiplicities (n_y, n_x) and variance σ², θ white with variance s = σ_θ².
 Axis 0 = rows = y is the recursion axis; n = n_y.  All functions take ``rho = (ρ_y, ρ_x)``,
 ``order = (n_y, n_x)``, ``sigma`` and ``noise_var = s``; images may carry a trailing batch
 axis (H, W, B) (all filters are linear, the batch is used for exact MSE maps).
 
 Notation:
-  R_y, R_x   normalised correlation Toeplitz matrices (SPEC §1.1) of the grid axes,
-  T_x = σ² R_x (W×W)   = V_x0 of SPEC §2.2,
+  R_y, R_x   normalised correlation Toeplitz matrices (§1.1) of the grid axes,
+  T_x = σ² R_x (W×W)   = V_x0 of §2.2,
   A_y        n×n companion matrix (first row α_{y,1..n} [P 2.8], ones below),
-  q = β̃_y²   so that the row innovation covariance is q T_x (SPEC §2.2 [P 3.32]).
+  q = β̃_y²   so that the row innovation covariance is q T_x (§2.2 [P 3.32]).
 Row state at row k: ȳ_k = (x̄_k, x̄_{k-1}, …, x̄_{k-n+1}); transition S = A_y ⊗ I_W; only x̄_k is
 observed (H = (I 0 … 0)).
 
@@ -20,24 +20,24 @@ observed (H = (I 0 … 0)).
    f_ab = σ²λ_a λ_b s / (σ²λ_a λ_b + s): map = (U_y∘U_y) F (U_x∘U_x)ᵀ, mean = mean(F).
    Cost O(H³ + W³).
 
-2. Optimal vector row filter (``vector_row_filter``), SPEC §2.1–2.2, computed EXACTLY in the
+2. Optimal vector row filter (``vector_row_filter``), §2.1–2.2, computed EXACTLY in the
    eigenbasis of T_x.  Every matrix of the row state space is a Kronecker product with T_x or
    I_W: S = A_y ⊗ I, Q = q e₁e₁ᵀ ⊗ T_x, R = s I, and the exact stationary prior of the first n
    rows is σ² R_y[:n,:n] ⊗ R_x.  With T_x = U_x diag(λ) U_xᵀ the rotation z̄_k → U_xᵀ z̄_k splits
    the nW-dimensional filter into W independent n-dimensional Kalman filters (mode j: process noise
    q λ_j e₁e₁ᵀ, observation noise s, prior λ_j R_y[:n,:n]) — the same filter as the literal
-   dense one of SPEC §2.2 (checked to ~1e-12, and against batch GLS), with O(W n³) per Riccati
+   dense one of §2.2 (checked to ~1e-12, and against batch GLS), with O(W n³) per Riccati
    step instead of O((nW)³) and O(W² + W n²) per row.
    Exact start: rows 1..n form one static state (stack x̄_n..x̄_1) with the exact stationary
-   prior, observed one row at a time, so row t ≤ n gets E[x̄_t | z̄_1..z̄_t]; this is SPEC §2.2's
+   prior, observed one row at a time, so row t ≤ n gets E[x̄_t | z̄_1..z̄_t]; this is §2.2's
    start (row 1 = scalar filter + backward smoother along the row with the x model, rows
    2..n = boundary models of §1.3) written as one Kalman filter.  diag(P) is the true MSE of
    every pixel, edges and first rows included.  smooth=True adds the RTS pass over rows,
    J_k = P_k Sᵀ P_e,k+1⁻¹ per mode; with the exact start the result is the posterior mean
    given the whole image: its error map equals ``wiener_error_map`` (checked to ~1e-13).
 
-3. Quasi-optimal banded-precision row filter (``scalar_row_filter``), SPEC §2.3 generalised.
-   SPEC §2.3's idea: the update is a Wiener estimate E[u | y] of the prediction error
+3. Quasi-optimal banded-precision row filter (``scalar_row_filter``), §2.3 generalised.
+   §2.3's idea: the update is a Wiener estimate E[u | y] of the prediction error
    u = ȳ_k − ŷ_e,k from the innovation y = z̄_k − x̂_e,k; replace the dense covariance P_e,k by
    an AR model along the row and estimate u by a recursion along the row.  Generalisation:
    (a) model the prediction error of the WHOLE state, not only of x̄_k: at column ℓ the vector
@@ -57,7 +57,7 @@ observed (H = (I 0 … 0)).
    (c) the model covariance M_k equals P_e,k on the block band; its precision
        Λ_k = M_k⁻¹ = L_kᵀ D_k⁻¹ L_k is block-banded: in the interleaved ordering (ℓ, i) ↦ ℓn + i its
        scalar half-bandwidth is b = n(m+1) − 1.  E_M[u | y] = A_k⁻¹ Hᵀ y / s with
-       A_k = Λ_k + HᵀH/s, also banded: the Kalman filter + smoother along the row of SPEC §2.3
+       A_k = Λ_k + HᵀH/s, also banded: the Kalman filter + smoother along the row of §2.3
        becomes ONE banded SPD solve (Cholesky factor precomputed).
    (d) numerics: everything is done on the whitened state v' = T v per column, T = L⁻¹,
        L = chol(R_y[:n,:n]) (``row_basis``).  The fit is equivariant under a constant
@@ -112,7 +112,7 @@ observed (H = (I 0 … 0)).
    causal loss ≤ +2.05 % (the same (1,1) worst case), all n ≥ 2 cases ≤ +0.46 %; smoothed
    gap ≤ +2.03 %.  With ``default_ar_order`` (m = 8 for n_y = 1; 2026-11-27, after the
    drift scale): loss ≤ +0.34 %, gap ≤ +0.65 %, both (2,2), ρ = 0.95, σ_x²/σ_θ² = 10.
-   Scripts and full tables: /work/scratch_rowfilter (table.py, scan_grid.py, literal.py).
+   The current tables: the benchmark page *Row filters* (``benches/bench_row_filters.py``).
 
 4. ``linear_estimator_mse`` gives the exact per-pixel MSE of ANY linear row estimator by
    applying it to the columns of a square root of Cov(x) and of the noise covariance:
@@ -133,12 +133,12 @@ from ..field.ar_field import axis_ar_coefficients, axis_correlation, beta_tilde_
 
 
 def axis_covariance(rho: float, n: int, size: int) -> np.ndarray:
-    """Toeplitz(R(|i-j|)) of one axis, normalised (SPEC §1.1 [P 2.9])."""
+    """Toeplitz(R(|i-j|)) of one axis, normalised (§1.1 [P 2.9])."""
     return toeplitz(axis_correlation(rho, n, np.arange(size)))
 
 
 def companion(rho: float, n: int) -> np.ndarray:
-    """A_y: first row α_1..α_n [P 2.8], identity below (SPEC §2.2 [P 3.18])."""
+    """A_y: first row α_1..α_n [P 2.8], identity below (§2.2 [P 3.18])."""
     a = np.zeros((n, n))
     a[0] = axis_ar_coefficients(rho, n)
     a[1:, :-1] = np.eye(n - 1)
@@ -146,7 +146,7 @@ def companion(rho: float, n: int) -> np.ndarray:
 
 
 def row_modes(rho_x: float, n_x: int, sigma: float, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """Eigen-decomposition T_x = σ² R_x = U diag(λ) Uᵀ (used by SPEC §2.2 in modal form)."""
+    """Eigen-decomposition T_x = σ² R_x = U diag(λ) Uᵀ (used by §2.2 in modal form)."""
     lam, u = eigh(sigma**2 * axis_covariance(rho_x, n_x, width))
     return np.clip(lam, 0.0, None), u
 
@@ -215,22 +215,22 @@ def _wiener_factors(rho, order, sigma, noise_var, shape):
 
 def wiener_error_map(rho, order, sigma, noise_var, shape) -> np.ndarray:
     """Per-pixel error variance of the best linear non-causal estimator on the finite grid
-    (SPEC §2.4 bound): diag of the posterior covariance, via Cov(x) = σ² R_y ⊗ R_x."""
+    (§2.4 bound): diag of the posterior covariance, via Cov(x) = σ² R_y ⊗ R_x."""
     uy, post, ux = _wiener_factors(rho, order, sigma, noise_var, shape)
     return (uy**2) @ post @ (ux**2).T
 
 
 def wiener_bound(rho, order, sigma, noise_var, shape) -> float:
-    """Mean error variance of the best linear non-causal estimator (SPEC §2.4): mean(f_ab)."""
+    """Mean error variance of the best linear non-causal estimator (§2.4): mean(f_ab)."""
     return float(np.mean(_wiener_factors(rho, order, sigma, noise_var, shape)[1]))
 
 
 # ----------------------------------------------------------------------------------------------
-# 2. optimal vector row filter (modal form of SPEC §2.1–2.2)
+# 2. optimal vector row filter (modal form of §2.1–2.2)
 
 
 def modal_riccati(rho, order, sigma, noise_var, width, height, modes="exact", span=None):
-    """Riccati recursion of the optimal row filter (SPEC §2.2 [P 3.29, 3.30]), one n×n filter per
+    """Riccati recursion of the optimal row filter (§2.2 [P 3.29, 3.30]), one n×n filter per
     eigen-mode λ_j of T_x.  Returns (λ, U_x, steps); steps[t] = dict(pe, pf, gain) with arrays of
     shape (W, n, n), (W, n, n), (W, n): prediction / filtered covariances and Kalman gains.
     modes="toeplitz": the Fourier modes of ``toeplitz_modes`` (U_x is then their weights);
@@ -308,7 +308,7 @@ def _as_batch(z: np.ndarray) -> tuple[np.ndarray, bool]:
 
 
 def vector_row_filter(z, rho, order, sigma, noise_var, smooth=False):
-    """Optimal vector row filter, SPEC §2.1–2.2 with the exact start of §2.2/§4.3, and, with
+    """Optimal vector row filter, §2.1–2.2 with the exact start of §2.2 ([P §4.3]), and, with
     smooth=True, the row-wise RTS smoother.  z: (H, W) or a batch (H, W, B).
     Returns (estimate, error_variance_map); the map is the exact per-pixel MSE (diag P)."""
     zb, single = _as_batch(z)
@@ -356,7 +356,7 @@ INFORMATION_RATIO = 1e-4
 def column_precision(rho_y: float, n: int, height: int) -> np.ndarray:
     """R_y⁻¹ of `height` rows (dense here; banded, bandwidth n): the exact stationary start's
     density p(x_0..x_{n−1}) p(x_n | …) ⋯ as T_kᵀT_k on the first k = min(n, H) rows (T of
-    ``row_basis``) plus g gᵀ/β̃² per later row, g = (−α_n, …, −α_1, 1) (SPEC §1.3, [P 2.8])."""
+    ``row_basis``) plus g gᵀ/β̃² per later row, g = (−α_n, …, −α_1, 1) (§1.3, [P 2.8])."""
     tmat, _ = row_basis(rho_y, n)
     k = min(n, height)
     q = np.zeros((height, height))
@@ -444,7 +444,7 @@ INTERIOR_TOLERANCE = 1e-5
 
 def column_model(band: list[np.ndarray], ell: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """(Γ_ℓ, D_ℓ) of the block AR model of column ℓ over its past ℓ−1, …, ℓ−min(ℓ, m)
-    (SPEC [P 3.11, 3.12, 3.34–3.36]): Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹,
+    ([P 3.11, 3.12, 3.34–3.36]): Γ_ℓ = C_{ℓ,past} C_{past,past}⁻¹,
     D_ℓ = C_{ℓℓ} − Γ_ℓ C_{past,ℓ} (symmetrised)."""
     n = band[0].shape[1]
     past = list(range(ell - 1, max(ell - m, 0) - 1, -1))
@@ -770,7 +770,7 @@ def scalar_row_filter(
     weights=None,
     row_models="propagated",
 ):
-    """Quasi-optimal row filter (SPEC §2.3 generalised, module doc part 3), O(W n² m) per row.
+    """Quasi-optimal row filter (§2.3 generalised, module doc part 3), O(W n² m) per row.
     z: (H, W) or batch (H, W, B).  Returns the estimate (causal, or RTS-smoothed).
     weights: (H, W) per-pixel 1/σ_θ² (0 = missing pixel), see ``weighted_systems``."""
     causal, smoothed = scalar_row_passes(

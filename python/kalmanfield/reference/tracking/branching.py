@@ -1,10 +1,11 @@
-"""Plain-NumPy reference of the branching segment-sequence tracker (SPEC §3.1–3.3, [K93]).
+"""Plain-NumPy reference of the branching segment-sequence tracker (method page *Tracking*,
+§3.1–3.3, [K93]).
 
 Written for clarity, as the twin the Rust ``kalmanfield.BranchingTracker`` will be checked
 against. SciPy is optional (``cKDTree`` for the gating look-up; a chunked brute-force search is
 used without it); the χ² quantiles are computed here.
 
-Model (SPEC §3.1)
+Model (§3.1)
 -----------------
 Each detection is a parameter vector z = (z_1..z_k) (x, y, then any other parameter). Every
 parameter q has its own polynomial Kalman filter of order ν_q: state (x_q, ẋ_q, …, x_q^(ν_q)),
@@ -13,18 +14,18 @@ Process noise: a white (ν_q+1)-th derivative held constant over the step, of st
 so Q_q = σ_q² g gᵀ with g_i = τ^(ν_q+1-i)/(ν_q+1-i)! (ν = 1: the discrete white-noise
 acceleration model, g = (τ²/2, τ)).
 
-Index (SPEC §3.2)
+Index (§3.2)
 -----------------
 Increment of a measured frame: δ = Σ_q (z_q − Hᵀ F X̂_q)² / D_q. The index I is the sum of the last
 N = ``memory`` increments (frames with a miss add none, so "last N increments" = last N measured
 frames). A branch is accepted while I ≤ α(k·n), the χ² quantile of confidence β for k·n degrees of
 freedom, n = min(#increments, N). This test *is* the gate: a measurement is a candidate for a
 sequence iff δ ≤ α(k·n_new) − (sum of the increments that stay in the window). The first ν_max+1
-measurements of a sequence are the least-squares start (SPEC §3.3 step 1, "I = 0 for least-squares
+measurements of a sequence are the least-squares start (§3.3 step 1, "I = 0 for least-squares
 starts"): they add no increment; the second and later start points are gated by a maximum speed
 instead (‖Δposition‖ ≤ max_speed·Δt + 3√2·σ, σ the largest spatial measurement std).
 
-Branching (SPEC §3.3 step 2) and pruning
+Branching (§3.3 step 2) and pruning
 ----------------------------------------
 Per frame every live sequence ("hypothesis") branches over every measurement inside its gate,
 plus one "missed" branch (the coasted prediction) while its current run of misses stays
@@ -53,7 +54,7 @@ most ``max_seeds`` new starts), each with the
 measurements of its gate; at extreme clutter the cap and ``max_seeds`` decide what is kept
 (confirmed sequences first), so the cost per frame stays bounded and the quality degrades.
 
-Sequences start (SPEC §3.3 step 3) from every measurement of the frame that no *confirmed*
+Sequences start (§3.3 step 3) from every measurement of the frame that no *confirmed*
 sequence uses (at most ``max_seeds`` per frame: when there are more, those with the smallest
 splitmix64 hash of seed ^ global id, a deterministic random subset). A sequence is confirmed
 once it has ``n_confirm`` measurements and score ≥ ``confirm_llr``.
@@ -78,7 +79,7 @@ measurements per frame over the bounding box seen so far, its spans floored at 1
 It is a monotone function of the index for equal lengths and miss patterns, grows with the
 length of a good sequence and falls with misses, clutter-like jumps and a high clutter density.
 
-Final answer (SPEC §3.3 step 3)
+Final answer (§3.3 step 3)
 -------------------------------
 Candidates: the live confirmed sequences and, for each track tree that died, its best confirmed
 sequence that ended by running out of misses (trailing misses cut). Candidates with at least
@@ -162,7 +163,7 @@ def _chi2_cdf(x: float, dof: int) -> float:
 
 
 def chi2_quantile(beta: float, dof: int) -> float:
-    """χ² quantile α with P(χ²_dof ≤ α) = β (bisection; SPEC §3.2 threshold α_μ)."""
+    """χ² quantile α with P(χ²_dof ≤ α) = β (bisection; §3.2 threshold α_μ)."""
     if not 0.0 < beta < 1.0:
         raise ValueError("confidence must be in (0, 1)")
     lo, hi = 0.0, max(1.0, dof)
@@ -178,7 +179,7 @@ def chi2_quantile(beta: float, dof: int) -> float:
 
 
 def motion_matrices(order: int, tau: float, process_std: float) -> tuple[np.ndarray, np.ndarray]:
-    """(F, Q) of one parameter (SPEC §3.1): F[i, j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ,
+    """(F, Q) of one parameter (§3.1): F[i, j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ,
     g_i = τ^(ν+1−i)/(ν+1−i)!."""
     d = order + 1
     F = np.zeros((d, d))
@@ -351,7 +352,7 @@ class _Hyps:
 
 
 class BranchingTracker:
-    """Branching segment-sequence tracker, NumPy reference (SPEC §3.1–3.3).
+    """Branching segment-sequence tracker, NumPy reference (§3.1–3.3).
 
     Parameters
     ----------
@@ -512,7 +513,7 @@ class BranchingTracker:
             if self.tree_conf[tr] and self.tree_cand[tr] >= 0:
                 self.finished.append((int(self.tree_cand[tr]), float(self.tree_cand_llr[tr])))
         self.tree_alive = alive
-        # new sequences from measurements not used by confirmed sequences (SPEC §3.3 step 3)
+        # new sequences from measurements not used by confirmed sequences (§3.3 step 3)
         used = np.zeros(M, bool)
         rec = h.cur
         u = rec[h.conf & (rec >= gid0)] - gid0 if h.size else rec
@@ -534,7 +535,7 @@ class BranchingTracker:
             self._compact()
 
     def _branch(self, h: _Hyps, Z: np.ndarray, tau: float, t: float, gid0: int):
-        """Predict, gate and branch every live sequence (SPEC §3.1, §3.2, §3.3 step 2)."""
+        """Predict, gate and branch every live sequence (§3.1, §3.2, §3.3 step 2)."""
         k, s, H = self.k, self.s, h.size
         ln_lam, ln_lam_s = self._log_density(gid0 + len(Z))
         Xp, Pp, S, Pm, Sm = [], [], np.empty((H, k)), [], np.empty((H, k))
@@ -912,7 +913,7 @@ class BranchingTracker:
         return out
 
     def select(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Final greedy choice (SPEC §3.3 step 3): (node chain, kept-measurement mask) pairs.
+        """Final greedy choice (§3.3 step 3): (node chain, kept-measurement mask) pairs.
 
         ``selection="llr"``: candidates are taken in decreasing score. A candidate that shares at
         most ``max_shared`` measurements with sequences already taken is accepted with those
@@ -985,7 +986,7 @@ class BranchingTracker:
 
         Columns: frame, particle, the parameters (filtered estimates), their derivatives
         ``<name>_d1``…, ``detection`` (global detection id, −1 when coasted), ``coasted``,
-        ``index`` (sliding index I, SPEC §3.2) and ``score``. ``online=True`` gives the
+        ``index`` (sliding index I, §3.2) and ``score``. ``online=True`` gives the
         per-frame online answer instead (particle = track tree id).
         """
         if online:

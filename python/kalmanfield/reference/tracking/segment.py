@@ -1,6 +1,6 @@
-"""Plain-NumPy reference of the frame segmentation (SPEC §3, [K93]): twin of the Rust module
-``segment`` and of ``kalmanfield.segment``, written for clarity (a breadth-first flood fill
-per segment, then the moments pixel by pixel); meant for small frames."""
+"""Plain-NumPy reference of the frame segmentation (method page *Tracking*, §3; [K93]): twin of the
+Rust module ``segment`` and of ``kalmanfield.segment``, written for clarity (a breadth-first
+flood fill per segment, then the moments pixel by pixel); meant for small frames."""
 
 from __future__ import annotations
 
