@@ -8,7 +8,7 @@ here at the top level. The method pages of the documentation give the formulas a
 """
 
 from . import _compat
-from .denoising import denoise, estimate_noise_var, local_moments
+from .denoising import denoise, estimate_noise_var, estimate_sigma, local_moments
 from .field import ARFieldModel, FieldStream, sample_product_field
 from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import (
@@ -40,6 +40,7 @@ __all__ = [
     "YuleWalkerModel",
     "denoise",
     "estimate_noise_var",
+    "estimate_sigma",
     "local_moments",
     "identify",
     "link",
