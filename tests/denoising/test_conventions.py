@@ -30,7 +30,7 @@ def test_a_colour_image_is_denoised_channel_by_channel():
     rgb = np.stack([z * s for s in scale], axis=-1)
     out = kf.denoise(rgb, channel_axis=-1)
     assert out.shape == rgb.shape
-    for c, s in enumerate(scale):  # each channel alone, with its own noise level
+    for c in range(len(scale)):  # each channel alone, with its own noise level
         np.testing.assert_array_equal(out[..., c], kf.denoise(np.ascontiguousarray(rgb[..., c])))
     first = kf.denoise(np.moveaxis(rgb, -1, 0), channel_axis=0)
     np.testing.assert_array_equal(first, np.moveaxis(out, -1, 0))

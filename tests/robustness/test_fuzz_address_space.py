@@ -37,7 +37,10 @@ OVERSIZE = [
     ),
     # (was an abort: memory allocation failed)
     ("scalar error_variance 1e8 rows", "kf.ScalarRowFilter(MODEL, 1.0, 16).error_variance(10**8)"),
-    ("denoise 6 GB stack", "kf.denoise(np.zeros((1, 2, 2)) + np.zeros((6000, 360, 360)), noise_var=0.1)"),
+    (
+        "denoise 6 GB stack",
+        "kf.denoise(np.zeros((1, 2, 2)) + np.zeros((6000, 360, 360)), noise_var=0.1)",
+    ),
 ]
 if LONG:
     OVERSIZE += [
