@@ -30,6 +30,7 @@ pub mod scalar_row_filter;
 pub mod scratch;
 pub mod segment;
 pub mod stationary_start;
+pub mod trajectory;
 pub mod steady_band;
 mod steady_blocks;
 pub mod vector_row_filter;
