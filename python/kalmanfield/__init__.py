@@ -14,6 +14,7 @@ from .product_field import sample_product_field
 from .sample_correlation import sample_correlation
 from .scalar_row_filter import ScalarRowFilter
 from .segmentation import segment
+from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
 from .vector_row_filter import VectorRowFilter
 from .wiener_bound import wiener_bound, wiener_error_map
 from .yule_walker import YuleWalkerModel, yule_walker
@@ -22,13 +23,17 @@ __all__ = [
     "ARFieldModel",
     "AxisFit",
     "BranchingTracker",
+    "ChangeDetector",
     "FieldStream",
+    "FuzzyFilter",
     "IdentifiedModel",
+    "KalmanFilterCV",
     "ScalarRowFilter",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",
     "denoise",
+    "effective_memory",
     "estimate_noise_var",
     "local_moments",
     "identify",

@@ -19,6 +19,9 @@ const MIN_NODES: usize = 32;
 const MAX_NODES: usize = 480;
 /// The largest threshold searched.
 pub const MAX_THRESHOLD: f64 = 40.0;
+/// The longest one-sided mean run length computed: the linear system's conditioning grows
+/// like the run length, so beyond ~1e9 samples its relative error exceeds ~1e-6.
+pub const MAX_RUN_LENGTH: f64 = 1e9;
 
 /// Gauss–Legendre nodes and weights on [0, h] (Newton on the Legendre polynomial).
 fn gauss_legendre(n: usize, h: f64) -> (Vec<f64>, Vec<f64>) {
@@ -81,7 +84,15 @@ pub fn cusum_arl(h: f64, k: f64) -> Result<f64> {
             "the CUSUM threshold must lie in [0, {MAX_THRESHOLD}], got {h}"
         )));
     }
-    Ok(arl_with(h, k, nodes_for(h)))
+    let arl = arl_with(h, k, nodes_for(h));
+    if arl.is_finite() && arl > 0.0 && arl <= MAX_RUN_LENGTH {
+        Ok(arl)
+    } else {
+        Err(FieldError::InvalidParameter(format!(
+            "the run length of h = {h}, k = {k} exceeds {MAX_RUN_LENGTH:e} samples, beyond \
+             the accurate range of the computation"
+        )))
+    }
 }
 
 fn check_drift(k: f64) -> Result<()> {
@@ -104,7 +115,15 @@ pub fn cusum_threshold(confidence: f64, k: f64) -> Result<f64> {
         )));
     }
     // one side's mean run length: twice the two-sided one
-    let target = (2.0 / (1.0 - confidence)).ln();
+    let run_length = 2.0 / (1.0 - confidence);
+    if run_length > MAX_RUN_LENGTH / 10.0 {
+        return Err(FieldError::InvalidParameter(format!(
+            "confidence {confidence} is too close to 1 for the CUSUM: its mean run length \
+             between false alarms is computed up to {:e} samples (confidence ≤ 1 - 2e-8)",
+            MAX_RUN_LENGTH / 20.0
+        )));
+    }
+    let target = run_length.ln();
     let mut hi = 1.0;
     while arl_with(hi, k, nodes_for(hi)).ln() < target {
         hi *= 2.0;
@@ -128,6 +147,11 @@ pub fn cusum_threshold(confidence: f64, k: f64) -> Result<f64> {
     for _ in 0..200 {
         let h = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
         let fh = f(h);
+        if !fh.is_finite() {
+            return Err(FieldError::NonFinite(format!(
+                "the CUSUM run length of h = {h}, k = {k} could not be computed"
+            )));
+        }
         if fh.abs() < 1e-13 || hi - lo < 1e-13 {
             return Ok(h);
         }
