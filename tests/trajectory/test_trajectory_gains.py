@@ -57,8 +57,11 @@ def models(draw):
     return (draw(spread), draw(spread), draw(spread), draw(vel), draw(vel), draw(r_vel))
 
 
-@given(setting=models(), steps=st.lists(st.floats(0.01, 10.0), min_size=1, max_size=25),
-       rule=st.sampled_from(["fuzzy", "kalman"]))
+@given(
+    setting=models(),
+    steps=st.lists(st.floats(0.01, 10.0), min_size=1, max_size=25),
+    rule=st.sampled_from(["fuzzy", "kalman"]),
+)
 def test_gains_equal_the_twin(setting, steps, rule):
     f, spreads = make(rule, setting)
     times = np.cumsum(np.r_[0.0, steps])

@@ -86,3 +86,8 @@ def next_time(t_n: Any, t_last: float | None) -> float:
     if not math.isfinite(t):  # pragma: no cover - real_number refuses it
         raise ValueError("t_n must be finite")
     return t
+
+
+def as_batch(values: np.ndarray, two_d: bool) -> np.ndarray:
+    """A (series, samples) view of one series (1-D) or of a batch."""
+    return values if two_d else values[None, :]

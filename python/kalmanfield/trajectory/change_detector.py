@@ -12,7 +12,7 @@ import pandas as pd
 
 from .. import _core
 from .._validation import positive_float, positive_int, probability, thread_count
-from ._inputs import next_time, series_array, step_samples, times_array, velocity_array
+from ._inputs import as_batch, next_time, series_array, step_samples, times_array, velocity_array
 from .motion_filter import MotionFilter
 
 #: the tests of :class:`ChangeDetector`
@@ -154,10 +154,9 @@ class ChangeDetector:
         t = times_array(times, arr.shape)
         zv = velocity_array(velocity, arr.shape, self._filter.measures_velocity)
         two_d = arr.ndim == 2
-        as2d = (lambda a: a) if two_d else (lambda a: None if a is None else a[None, :])
-        out = _core.detect_changes(
-            self._filter._model, self._config, as2d(arr), t, as2d(zv), thread_count(threads)
-        )
+        zv2 = None if zv is None else as_batch(zv, two_d)
+        model, batch = self._filter._model, as_batch(arr, two_d)
+        out = _core.detect_changes(model, self._config, batch, t, zv2, thread_count(threads))
         if not two_d:
             out = tuple(a[0] for a in out)
         return ChangePoints(*out)

@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from .. import _core
 from .._validation import positive_int, real_value, thread_count
-from ._inputs import next_time, series_array, step_samples, times_array, velocity_array
+from ._inputs import as_batch, next_time, series_array, step_samples, times_array, velocity_array
 
 
 class TrajectoryEstimates(NamedTuple):
@@ -140,8 +140,8 @@ class MotionFilter:
         t = times_array(times, arr.shape)
         zv = velocity_array(velocity, arr.shape, self.measures_velocity)
         two_d = arr.ndim == 2
-        as2d = (lambda a: a) if two_d else (lambda a: None if a is None else a[None, :])
-        pos, vel = self._model.filter(as2d(arr), t, as2d(zv), thread_count(threads))
+        zv2 = None if zv is None else as_batch(zv, two_d)
+        pos, vel = self._model.filter(as_batch(arr, two_d), t, zv2, thread_count(threads))
         if not two_d:
             pos, vel = pos[0], vel[0]
         return TrajectoryEstimates(pos, vel)
@@ -153,9 +153,7 @@ class MotionFilter:
         self._scalar = True
         self._t_last: float | None = None
 
-    def step(
-        self, z_n: Any, t_n: float | None = None, *, velocity: Any = None
-    ) -> tuple[Any, Any]:
+    def step(self, z_n: Any, t_n: float | None = None, *, velocity: Any = None) -> tuple[Any, Any]:
         """Filters the next sample of one series (a number) or of k series (a 1-D array).
 
         ``t_n`` defaults to the previous time + 1 (0 at the first step); NaN = missing.

@@ -114,7 +114,7 @@ impl PyTrajectoryModel {
         Ok((pos, vel))
     }
 
-    /// The spreads (p, q, r, p_vel, q_vel, r_vel) and the rule.
+    /// The gain rule: "fuzzy" or "kalman".
     #[getter]
     fn rule(&self) -> &'static str {
         match self.inner.rule {

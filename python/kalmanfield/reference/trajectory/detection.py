@@ -8,7 +8,8 @@
 - ``chi2``: the sum of the last W squared normalised innovations of a diffuse-start Kalman
   filter against the χ²_W quantile.
 - ``cusum``: the two-sided CUSUM of the same innovations with drift k against h.
-At an alarm at t_n both filters restart with z_n as a new segment's first sample.
+At an alarm at t_n the filters restart: z_n is the first sample of the estimator's new
+segment (and of the fuzzy test's filter); the Kalman filter of chi2/cusum restarts at z_{n+1}.
 """
 
 from __future__ import annotations
@@ -141,7 +142,7 @@ class _Chi2:
         self.filter = InnovationFilter(m)
         self.restart()
 
-    def restart(self):
+    def restart(self) -> None:
         self.filter.restart()
         self.squares: list[float] = []
 
@@ -185,17 +186,20 @@ class _Cusum:
             self.up, self.down = pending
 
 
-def detect(m: Spreads, method: str, confidence: float, z, times=None, z_vel=None, window=5,
-           drift=0.5):
+def detect(
+    m: Spreads, method: str, confidence: float, z, times=None, z_vel=None, window=5, drift=0.5
+):
     """(positions, velocities, alarms, statistic/threshold) of one series."""
     z = np.asarray(z, dtype=float)
     t = np.arange(len(z), dtype=float) if times is None else np.asarray(times, dtype=float)
     zv = np.full(len(z), np.nan) if z_vel is None else np.asarray(z_vel, dtype=float)
-    test = {
-        "fuzzy": lambda: _Fuzzy(m, confidence),
-        "chi2": lambda: _Chi2(m, confidence, window),
-        "cusum": lambda: _Cusum(m, confidence, drift),
-    }[method]()
+    test: _Fuzzy | _Chi2 | _Cusum
+    if method == "fuzzy":
+        test = _Fuzzy(m, confidence)
+    elif method == "chi2":
+        test = _Chi2(m, confidence, window)
+    else:
+        test = _Cusum(m, confidence, drift)
     estimator = SeriesFilter(m)
     out = np.full((len(z), 4), np.nan)
     for n in range(len(z)):
@@ -204,7 +208,10 @@ def detect(m: Spreads, method: str, confidence: float, z, times=None, z_vel=None
         if ratio > 1:
             estimator.restart()
             test.restart()
-            test.commit(t[n], z[n], zv[n], None)
+            if method == "fuzzy":
+                test.commit(t[n], z[n], zv[n], None)
+            else:  # the Kalman filter of chi2/cusum restarts from the next sample
+                test.commit(t[n], math.nan, math.nan, None)
         else:
             test.commit(t[n], z[n], zv[n], None if a is None else a[1])
         x, v = estimator.step(t[n], z[n], zv[n])

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def effective_memory(alpha: float, beta: float, tau: float = 1.0, level: float = 0.01,
-                     lags: int = 10_000) -> int:
+def effective_memory(
+    alpha: float, beta: float, tau: float = 1.0, level: float = 0.01, lags: int = 10_000
+) -> int:
     """Number of lags j ≥ 0 with |w_j| > level (computed over `lags` lags)."""
     k = np.array([alpha, beta / tau])
     f = np.array([[1.0, tau], [0.0, 1.0]])
