@@ -215,6 +215,15 @@ class TrajectoryModel:
         z_vel: npt.NDArray[np.float64] | None = None,
         threads: int | None = None,
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def filter_into(
+        self,
+        z: npt.NDArray[np.float64],
+        pos: npt.NDArray[np.float64],
+        vel: npt.NDArray[np.float64],
+        times: npt.NDArray[np.float64] | None = None,
+        z_vel: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
+    ) -> None: ...
     @property
     def rule(self) -> str: ...
 

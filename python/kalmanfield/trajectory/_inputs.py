@@ -91,3 +91,24 @@ def next_time(t_n: Any, t_last: float | None) -> float:
 def as_batch(values: np.ndarray, two_d: bool) -> np.ndarray:
     """A (series, samples) view of one series (1-D) or of a batch."""
     return values if two_d else values[None, :]
+
+
+def output_pair(out: Any, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`out` checked as the (position, velocity) destination of a filter of `z`: two
+    writeable, C-contiguous float64 arrays of z's shape sharing memory with nothing else."""
+    if not isinstance(out, tuple) or len(out) != 2:
+        raise TypeError("out must be a pair (position, velocity) of NumPy arrays")
+    for a in out:
+        if not isinstance(a, np.ndarray):
+            raise TypeError(f"out must hold NumPy arrays, got {type(a).__name__}")
+        if a.dtype != np.float64:
+            raise TypeError(f"out must hold float64 arrays, got {a.dtype}")
+        if a.shape != z.shape:
+            raise ValueError(f"out arrays must have the shape {z.shape} of z, got {a.shape}")
+        if not (a.flags.c_contiguous and a.flags.writeable):
+            raise ValueError("out arrays must be C-contiguous and writeable")
+        if np.may_share_memory(a, z):
+            raise ValueError("out shares memory with z: the filter reads z after writing")
+    if np.may_share_memory(out[0], out[1]):
+        raise ValueError("the two out arrays share memory")
+    return out[0], out[1]

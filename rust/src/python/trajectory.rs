@@ -114,6 +114,33 @@ impl PyTrajectoryModel {
         Ok((pos, vel))
     }
 
+    /// Like `filter`, into the given C-contiguous float64 arrays `pos` and `vel` (shaped like
+    /// `z`): a stream of batches can reuse them and skip the page faults of fresh outputs.
+    #[pyo3(signature = (z, pos, vel, times=None, z_vel=None, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn filter_into<'py>(
+        &self,
+        py: Python<'py>,
+        z: PyReadonlyArray2<'py, f64>,
+        pos: &Bound<'py, PyArray2<f64>>,
+        vel: &Bound<'py, PyArray2<f64>>,
+        times: Option<PyReadonlyArrayDyn<'py, f64>>,
+        z_vel: Option<PyReadonlyArray2<'py, f64>>,
+        threads: Option<usize>,
+    ) -> PyResult<()> {
+        let b = batch(&z, &times, &z_vel)?;
+        for out in [pos, vel] {
+            if out.shape() != z.shape() {
+                return Err(PyValueError::new_err("the outputs must have the shape of z"));
+            }
+        }
+        let (mut pos_rw, mut vel_rw) = (pos.try_readwrite()?, vel.try_readwrite()?);
+        let (p, v) = (pos_rw.as_slice_mut()?, vel_rw.as_slice_mut()?);
+        let model = &self.inner;
+        py.detach(|| with_threads(threads, || kernels::filter_batch(model, &b, p, v)))??;
+        Ok(())
+    }
+
     /// The gain rule: "fuzzy" or "kalman".
     #[getter]
     fn rule(&self) -> &'static str {

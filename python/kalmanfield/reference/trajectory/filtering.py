@@ -121,7 +121,7 @@ def filter_batch(m: Spreads, z, times=None, z_vel=None):
     z = np.asarray(z, dtype=float)
     shared = times is None or np.ndim(times) == 1
     missing = np.isnan(z).any() or (z_vel is not None and np.isnan(z_vel).any())
-    if not shared or missing or z.shape[1] < 4:
+    if not shared or missing:
         t = _times_of(times, z.shape)
         pairs = [
             filter_series(m, z[s], t[s], None if z_vel is None else z_vel[s])
@@ -156,7 +156,7 @@ def _filter_shared(m: Spreads, z, t, z_vel):
     zvt = None if z_vel is None else np.ascontiguousarray(np.asarray(z_vel, dtype=float).T)
     pos = np.empty((n, n_series))
     vel = np.empty((n, n_series))
-    for k in range(3):  # the warm-up: the least-squares start on samples 0..k, rerun
+    for k in range(min(3, n)):  # the warm-up: the least-squares start on samples 0..k, rerun
         dt = t[: k + 1] - t[0]
         mean_t, mean_z = dt.mean(), zt[: k + 1].mean(axis=0)
         if m.has_velocity and k > 0:
@@ -167,7 +167,7 @@ def _filter_shared(m: Spreads, z, t, z_vel):
         else:
             x0, v0 = mean_z, np.zeros(n_series)
         pos[k], vel[k] = _run(gains, t, zt, zvt, x0, v0, k)
-    x, v = pos[2].copy(), vel[2].copy()
+    x, v = pos[min(3, n) - 1].copy(), vel[min(3, n) - 1].copy()
     for k in range(3, n):
         x, v = _step(gains[k], t[k] - t[k - 1], x, v, zt[k], None if zvt is None else zvt[k])
         pos[k], vel[k] = x, v
