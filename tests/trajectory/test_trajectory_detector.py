@@ -127,7 +127,7 @@ def test_fuzzy_test_finds_large_jumps_at_once():
     # position jumps of 10 R in 200 series: the alarm falls on the jump sample itself
     jumps = {s: (30 + s % 20, 10.0 * (1 if s % 2 else -1)) for s in range(200)}
     z = model_series(200, 80, 13, 0.1, 0.01, 1.0, jumps=jumps)
-    found = ChangeDetector(FuzzyFilter(1.0, 0.1, 1.0, 1.0, 0.01), confidence=0.9).run(z)
+    found = ChangeDetector(FuzzyFilter(1.0, 0.1, 1.0, 1.0, 0.01), "fuzzy", confidence=0.9).run(z)
     hits = [found.alarm[s, k] for s, (k, _) in jumps.items()]
     assert np.mean(hits) > 0.95
 
@@ -143,7 +143,7 @@ def test_cusum_threshold_equals_the_twin_and_the_tables():
 
 def test_change_points_helpers():
     z = np.r_[np.zeros(20), np.full(20, 30.0)] + np.sin(np.arange(40))
-    det = ChangeDetector(FuzzyFilter(1.0, 0.5, 1.0), confidence=0.99)
+    det = ChangeDetector(FuzzyFilter(1.0, 0.5, 1.0), "fuzzy", confidence=0.99)
     one = det.run(z)
     assert list(one.indices()) == [20]
     many = det.run(np.vstack([z, -z, np.zeros(40)]))
@@ -153,6 +153,10 @@ def test_change_points_helpers():
     assert frame.values.tolist() == [[0, 20], [1, 20]]
     assert det.threshold == pytest.approx(-np.log(0.01))
     assert "ChangeDetector" in repr(det)
+    # defaults: the study's winner, about one false alarm per 1,000 samples
+    default = ChangeDetector(FuzzyFilter(1.0, 0.5, 1.0))
+    assert default.settings == dict(method="cusum", confidence=0.999, window=5, drift=0.5)
+    assert list(default.run(z).indices()) == [20]
 
 
 def test_plots():

@@ -5,7 +5,7 @@ The method page is *Fuzzy filter* (``docs/methods/fuzzy_filter.md``), the user g
 *Trajectory* (``docs/guide/trajectory.md``).
 """
 
-from .change_detector import METHODS, ChangeDetector, ChangePoints
+from .change_detector import DEFAULT_CONFIDENCE, METHODS, ChangeDetector, ChangePoints
 from .fuzzy_filter import FuzzyFilter
 from .kalman_filter import KalmanFilterCV
 from .memory import effective_memory
@@ -13,6 +13,7 @@ from .motion_filter import MotionFilter, TrajectoryEstimates
 from .plots import SOURCE_FIGURES, plot_change_points, plot_gain_comparison, plot_gains
 
 __all__ = [
+    "DEFAULT_CONFIDENCE",
     "METHODS",
     "SOURCE_FIGURES",
     "ChangeDetector",
