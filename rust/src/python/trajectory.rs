@@ -131,7 +131,9 @@ impl PyTrajectoryModel {
         let b = batch(&z, &times, &z_vel)?;
         for out in [pos, vel] {
             if out.shape() != z.shape() {
-                return Err(PyValueError::new_err("the outputs must have the shape of z"));
+                return Err(PyValueError::new_err(
+                    "the outputs must have the shape of z",
+                ));
             }
         }
         let (mut pos_rw, mut vel_rw) = (pos.try_readwrite()?, vel.try_readwrite()?);

@@ -315,8 +315,16 @@ pub fn detect_batch(
     batch.check_shapes(model)?;
     let n = batch.n_samples;
     let size = batch.z.len();
-    if [out.pos.len(), out.vel.len(), out.alarm.len(), out.ratio.len()] != [size; 4] {
-        return Err(FieldError::Shape("the outputs must have the size of z".into()));
+    if [
+        out.pos.len(),
+        out.vel.len(),
+        out.alarm.len(),
+        out.ratio.len(),
+    ] != [size; 4]
+    {
+        return Err(FieldError::Shape(
+            "the outputs must have the size of z".into(),
+        ));
     }
     if n == 0 {
         return Ok(());

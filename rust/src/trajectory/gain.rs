@@ -60,8 +60,7 @@ pub(crate) fn advance(model: &MotionModel, spread: &mut Spread, tau: f64, seen: 
 
 pub(crate) fn overflow() -> FieldError {
     FieldError::NonFinite(
-        "the spreads, time steps or samples overflow float64 in the recursion: rescale them"
-            .into(),
+        "the spreads, time steps or samples overflow float64 in the recursion: rescale them".into(),
     )
 }
 

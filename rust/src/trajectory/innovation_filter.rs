@@ -113,11 +113,20 @@ impl InnovationFilter {
                     let [exx, exv, evv] = self.drift;
                     self.x = z;
                     self.v = (z - za) / span;
-                    let vv = (2.0 * r2 + exx - 2.0 * span * exv + span * span * evv) / (span * span);
+                    let vv =
+                        (2.0 * r2 + exx - 2.0 * span * exv + span * span * evv) / (span * span);
                     self.cov = [r2, r2 / span, vv];
                     self.phase = Phase::Proper;
                     if seen_vel {
-                        self.correct(&km, z, zv, Seen { pos: false, vel: true });
+                        self.correct(
+                            &km,
+                            z,
+                            zv,
+                            Seen {
+                                pos: false,
+                                vel: true,
+                            },
+                        );
                     }
                 }
             }

@@ -28,10 +28,7 @@ pub fn effective_memory(alpha: f64, beta: f64, tau: f64, level: f64) -> Result<u
     }
     let (kx, kv) = (alpha, beta / tau);
     // A = (I - k h^T) F
-    let a = [
-        [1.0 - kx, (1.0 - kx) * tau],
-        [-kv, 1.0 - kv * tau],
-    ];
+    let a = [[1.0 - kx, (1.0 - kx) * tau], [-kv, 1.0 - kv * tau]];
     let (mut x, mut v) = (kx, kv);
     let mut count = 0;
     // a stopping rule, not a bound: for the gains of these filters (stable A) the weights
