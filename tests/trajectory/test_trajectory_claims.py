@@ -38,7 +38,7 @@ def test_fuzzy_position_gain_is_practically_constant_from_n_5(figure, tag):
 
 def test_velocity_gain_settles_later_where_the_claim_fails():
     # β_n is within 3 % from n = 5 on in Fig. 1a and 2a, but not in Fig. 1b (8.7 %) nor 2b
-    # (26 %): there the fuzzy β_n needs n ≈ 8 and n ≈ 20 to come within 5 %
+    # (26 %): there the fuzzy β_n comes within 5 % from n = 6 and n = 11 on
     assert deviation_after(FuzzyFilter, SOURCE_FIGURES[1][0])[1] < 0.03
     assert deviation_after(FuzzyFilter, SOURCE_FIGURES[2][0])[1] < 0.03
     assert deviation_after(FuzzyFilter, SOURCE_FIGURES[1][1])[1] == pytest.approx(0.087, abs=0.002)

@@ -21,6 +21,7 @@ pub struct PyTrajectoryModel {
 }
 
 type Pair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+type StepPair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
 
 fn matrix(py: Python<'_>, v: Vec<f64>, shape: [usize; 2]) -> PyResult<Bound<'_, PyArray2<f64>>> {
     PyArray1::from_vec(py, v).reshape(shape)
@@ -176,7 +177,7 @@ impl PyFilterBank {
         t: f64,
         z: PyReadonlyArray1<'py, f64>,
         z_vel: Option<PyReadonlyArray1<'py, f64>>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    ) -> PyResult<StepPair<'py>> {
         let zv = z_vel
             .as_ref()
             .map(|a| contiguous(a, "velocity"))

@@ -116,9 +116,13 @@ impl SharedGains {
         let (x0, v0) = least_squares_start(model.has_velocity(), &self.times[..=k], &z[..=k]);
         let nu_v = |i: usize, ve: f64| zv.map_or(0.0, |zv| zv[i] - ve);
         let (mut x, mut v) = correct(model, x0, v0, &self.gains[0], z[0] - x0, nu_v(0, v0));
-        for i in 1..=k {
-            let (xe, ve) = predict(x, v, self.taus[i]);
-            (x, v) = correct(model, xe, ve, &self.gains[i], z[i] - xe, nu_v(i, ve));
+        let steps = self.taus[1..=k]
+            .iter()
+            .zip(&self.gains[1..=k])
+            .zip(&z[1..=k]);
+        for (j, ((&tau, g), &zi)) in steps.enumerate() {
+            let (xe, ve) = predict(x, v, tau);
+            (x, v) = correct(model, xe, ve, g, zi - xe, nu_v(j + 1, ve));
         }
         (x, v)
     }

@@ -58,7 +58,7 @@ impl<'a> Reader<'a> {
     }
     pub(crate) fn count(&mut self) -> Result<u64> {
         let v = self.f64()?;
-        if v >= 0.0 && v <= MAX_COUNT && v.fract() == 0.0 {
+        if (0.0..=MAX_COUNT).contains(&v) && v.fract() == 0.0 {
             Ok(v as u64)
         } else {
             Err(self.corrupt())

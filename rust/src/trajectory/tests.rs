@@ -132,3 +132,53 @@ fn streaming_state_round_trips() {
     }
     assert!(copy.load(&bank.save()[1..]).is_err());
 }
+
+#[test]
+fn velocity_measurements_and_per_series_times_match_series_by_series() {
+    let m = MotionModel::new(GainRule::Kalman, 1.0, 0.5, 1.0, 2.0, 0.3, Some(0.7)).unwrap();
+    let (k, n) = (10, 17);
+    let z = series(k, n, 2);
+    let zv: Vec<f64> = z.iter().map(|v| 0.1 * v).collect();
+    let times: Vec<f64> = (0..k * n)
+        .map(|i| (i % n) as f64 * 1.5 + 0.1 * ((i % n) as f64).sin())
+        .collect();
+    for t in [Times::Regular, Times::PerSeries(&times)] {
+        let batch = Batch {
+            z: &z,
+            z_vel: Some(&zv),
+            times: t,
+            n_series: k,
+            n_samples: n,
+        };
+        let (mut pos, mut vel) = (vec![0.0; k * n], vec![0.0; k * n]);
+        filter_batch(&m, &batch, &mut pos, &mut vel).unwrap();
+        for s in 0..k {
+            let mut f = SeriesFilter::new();
+            for i in 0..n {
+                let (x, v) = f
+                    .step(&m, batch.time(s, i), z[s * n + i], zv[s * n + i])
+                    .unwrap();
+                assert_eq!((x, v), (pos[s * n + i], vel[s * n + i]));
+            }
+        }
+    }
+}
+
+#[test]
+fn detectors_restart_at_a_large_jump() {
+    let m = model(GainRule::Fuzzy, 1.0, 0.5, 0.2, 0.05, 3.0); // R = 3 covers the wiggles
+    let mut z = series(1, 60, 4);
+    for v in &mut z[30..] {
+        *v += 100.0;
+    }
+    for method in [Method::Fuzzy, Method::Chi2, Method::Cusum] {
+        let cfg = DetectorConfig::new(method, 0.99, 3, 0.5).unwrap();
+        let mut bank = DetectorBank::new(m, cfg, 1);
+        let out: Vec<Outcome> = (0..60)
+            .map(|t| bank.step(t as f64, &[z[t]], None).unwrap()[0])
+            .collect();
+        assert!(out[30].alarm, "{method:?}");
+        // the alarm sample starts a new segment: its estimate is the sample itself
+        assert_eq!((out[30].x, out[30].v), (z[30], 0.0));
+    }
+}
