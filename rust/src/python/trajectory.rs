@@ -58,6 +58,18 @@ fn batch<'a>(
     })
 }
 
+/// The samples of one streaming step as slices.
+fn step_samples<'a>(
+    z: &'a PyReadonlyArray1<'_, f64>,
+    z_vel: &'a Option<PyReadonlyArray1<'_, f64>>,
+) -> PyResult<(&'a [f64], Option<&'a [f64]>)> {
+    let zv = z_vel
+        .as_ref()
+        .map(|a| contiguous(a, "velocity"))
+        .transpose()?;
+    Ok((contiguous(z, "z")?, zv))
+}
+
 #[pymethods]
 impl PyTrajectoryModel {
     #[new]
@@ -178,11 +190,8 @@ impl PyFilterBank {
         z: PyReadonlyArray1<'py, f64>,
         z_vel: Option<PyReadonlyArray1<'py, f64>>,
     ) -> PyResult<StepPair<'py>> {
-        let zv = z_vel
-            .as_ref()
-            .map(|a| contiguous(a, "velocity"))
-            .transpose()?;
-        let out = self.inner.step(t, contiguous(&z, "z")?, zv)?;
+        let (z, zv) = step_samples(&z, &z_vel)?;
+        let out = self.inner.step(t, z, zv)?;
         let (x, v): (Vec<f64>, Vec<f64>) = out.into_iter().unzip();
         Ok((PyArray1::from_vec(py, x), PyArray1::from_vec(py, v)))
     }
@@ -243,7 +252,13 @@ impl PyDetectorBank {
     #[new]
     fn new(model: &PyTrajectoryModel, config: &PyDetectorConfig, series: usize) -> Self {
         Self {
-            inner: kernels::DetectorBank::new(model.inner, config.inner, series),
+            inner: kernels::DetectorBank::new(
+                kernels::DetectorSettings {
+                    model: model.inner,
+                    config: config.inner,
+                },
+                series,
+            ),
         }
     }
 
@@ -256,11 +271,8 @@ impl PyDetectorBank {
         z: PyReadonlyArray1<'py, f64>,
         z_vel: Option<PyReadonlyArray1<'py, f64>>,
     ) -> PyResult<StepArrays<'py>> {
-        let zv = z_vel
-            .as_ref()
-            .map(|a| contiguous(a, "velocity"))
-            .transpose()?;
-        let out = self.inner.step(t, contiguous(&z, "z")?, zv)?;
+        let (z, zv) = step_samples(&z, &z_vel)?;
+        let out = self.inner.step(t, z, zv)?;
         Ok((
             PyArray1::from_iter(py, out.iter().map(|o| o.x)),
             PyArray1::from_iter(py, out.iter().map(|o| o.v)),

@@ -9,6 +9,7 @@
 //! tests starts from z_{n+1} instead, which keeps their false-alarm levels exact after
 //! restarts.
 
+use super::bank::{Bank, Lane};
 use super::batch::Batch;
 use super::chi2_test::Chi2Test;
 use super::cusum_test::CusumTest;
@@ -231,71 +232,35 @@ impl DetectorLane {
     }
 }
 
-/// Detectors of k series fed sample by sample (the streaming object).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DetectorBank {
+/// What the lanes of a [`DetectorBank`] share.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DetectorSettings {
     pub model: MotionModel,
     pub config: DetectorConfig,
-    lanes: Vec<DetectorLane>,
 }
 
-impl DetectorBank {
-    /// `series` detectors that have seen no sample.
-    pub fn new(model: MotionModel, config: DetectorConfig, series: usize) -> Self {
-        Self {
-            model,
-            config,
-            lanes: vec![DetectorLane::new(&config); series],
-        }
+impl Lane for DetectorLane {
+    type Settings = DetectorSettings;
+    type Out = Outcome;
+    fn fresh(s: &DetectorSettings) -> Self {
+        DetectorLane::new(&s.config)
     }
-
-    pub fn series(&self) -> usize {
-        self.lanes.len()
+    fn advance(&mut self, s: &DetectorSettings, t: f64, z: f64, zv: f64) -> Result<Outcome> {
+        self.step(&s.model, &s.config, t, z, zv)
     }
-
-    /// One sample per series at time `t`; nothing changes when an error is returned.
-    pub fn step(&mut self, t: f64, z: &[f64], z_vel: Option<&[f64]>) -> Result<Vec<Outcome>> {
-        let k = self.lanes.len();
-        if z.len() != k || z_vel.is_some_and(|zv| zv.len() != k) {
-            return Err(FieldError::Shape(format!(
-                "a step needs one sample per series ({k})"
-            )));
-        }
-        let mut next = self.lanes.clone();
-        let out = next
-            .iter_mut()
-            .enumerate()
-            .map(|(i, lane)| {
-                let zv = z_vel.map_or(f64::NAN, |zv| zv[i]);
-                lane.step(&self.model, &self.config, t, z[i], zv)
-            })
-            .collect::<Result<Vec<_>>>()?;
-        self.lanes = next;
-        Ok(out)
+    fn state_len(s: &DetectorSettings) -> usize {
+        s.config.state_len()
     }
-
-    /// The state of every series, concatenated.
-    pub fn save(&self) -> Vec<f64> {
-        let mut w = Writer::default();
-        self.lanes.iter().for_each(|l| l.save(&mut w));
-        w.0
+    fn save(&self, w: &mut Writer) {
+        DetectorLane::save(self, w)
     }
-
-    /// Restores a state saved by [`DetectorBank::save`] with the same configuration.
-    pub fn load(&mut self, state: &[f64]) -> Result<()> {
-        let per = self.config.state_len();
-        if state.is_empty() || state.len() % per != 0 {
-            return Err(Reader::new(state).corrupt());
-        }
-        let mut r = Reader::new(state);
-        let lanes = (0..state.len() / per)
-            .map(|_| DetectorLane::load(&mut r, &self.config))
-            .collect::<Result<Vec<_>>>()?;
-        r.finish()?;
-        self.lanes = lanes;
-        Ok(())
+    fn load(r: &mut Reader, s: &DetectorSettings) -> Result<Self> {
+        DetectorLane::load(r, &s.config)
     }
 }
+
+/// Detectors of k series fed sample by sample (the streaming object).
+pub type DetectorBank = Bank<DetectorLane>;
 
 /// Outputs of [`detect_batch`], series-major like the samples.
 pub struct Detections<'a> {

@@ -26,10 +26,13 @@ mod state;
 #[cfg(test)]
 mod tests;
 
-pub use bank::FilterBank;
+pub use bank::{Bank, FilterBank, Lane};
 pub use batch::{filter_batch, Batch, Times};
 pub use cusum_threshold::{cusum_arl, cusum_threshold};
-pub use detector::{detect_batch, Detections, DetectorBank, DetectorConfig, Method, Outcome};
+pub use detector::{
+    detect_batch, Detections, DetectorBank, DetectorConfig, DetectorLane, DetectorSettings, Method,
+    Outcome,
+};
 pub use gain::{gain_sequence, Gain};
 pub use memory::effective_memory;
 pub use model::{GainRule, MotionModel};

@@ -6,7 +6,7 @@ use crate::error::{FieldError, Result};
 
 /// Collects a state.
 #[derive(Default)]
-pub(crate) struct Writer(pub(crate) Vec<f64>);
+pub struct Writer(pub(crate) Vec<f64>);
 
 impl Writer {
     pub(crate) fn f64(&mut self, v: f64) {
@@ -24,7 +24,7 @@ impl Writer {
 }
 
 /// Reads a state back.
-pub(crate) struct Reader<'a>(&'a [f64]);
+pub struct Reader<'a>(&'a [f64]);
 
 /// The largest counter stored exactly in a float64.
 const MAX_COUNT: f64 = 9_007_199_254_740_992.0;

@@ -118,12 +118,24 @@ fn cusum_run_lengths_match_the_tables() {
 fn streaming_state_round_trips() {
     let m = model(GainRule::Fuzzy, 1.0, 1.0, 1.0, 1.0, 1.0);
     let cfg = DetectorConfig::new(Method::Chi2, 0.99, 4, 0.5).unwrap();
-    let mut bank = DetectorBank::new(m, cfg, 2);
+    let mut bank = DetectorBank::new(
+        DetectorSettings {
+            model: m,
+            config: cfg,
+        },
+        2,
+    );
     let z = series(2, 30, 3);
     for t in 0..10 {
         bank.step(t as f64, &[z[t], z[30 + t]], None).unwrap();
     }
-    let mut copy = DetectorBank::new(m, cfg, 1);
+    let mut copy = DetectorBank::new(
+        DetectorSettings {
+            model: m,
+            config: cfg,
+        },
+        1,
+    );
     copy.load(&bank.save()).unwrap();
     for t in 10..30 {
         let a = bank.step(t as f64, &[z[t], z[30 + t]], None).unwrap();
@@ -173,7 +185,13 @@ fn detectors_restart_at_a_large_jump() {
     }
     for method in [Method::Fuzzy, Method::Chi2, Method::Cusum] {
         let cfg = DetectorConfig::new(method, 0.99, 3, 0.5).unwrap();
-        let mut bank = DetectorBank::new(m, cfg, 1);
+        let mut bank = DetectorBank::new(
+            DetectorSettings {
+                model: m,
+                config: cfg,
+            },
+            1,
+        );
         let out: Vec<Outcome> = (0..60)
             .map(|t| bank.step(t as f64, &[z[t]], None).unwrap()[0])
             .collect();
