@@ -171,7 +171,8 @@ def test_plots():
     plt.close(fig)
     z = np.r_[np.zeros(20), np.full(20, 30.0)]
     found = ChangeDetector(FuzzyFilter(1.0, 0.5, 1.0)).run(z)
-    ax = plot_change_points(z, found)
+    _, ax = plt.subplots()
+    assert plot_change_points(z, found, ax=ax) is ax
     assert len(ax.lines) == 3  # samples, estimate, one alarm
     plt.close("all")
     with pytest.raises(ValueError, match="figure"):
