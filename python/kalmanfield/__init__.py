@@ -25,14 +25,18 @@ from .identification import (
 )
 from .rowfilter import ScalarRowFilter, VectorRowFilter, wiener_bound, wiener_error_map
 from .tracking import BranchingTracker, TrackerConfig, link, segment
+from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
 
 __all__ = [
     "ARFieldModel",
     "AxisFit",
     "BranchingTracker",
+    "ChangeDetector",
     "FieldStream",
+    "FuzzyFilter",
     "IMMEstimator",
     "IdentifiedModel",
+    "KalmanFilterCV",
     "LinearGaussianModel",
     "ScalarRowFilter",
     "TrackerConfig",
@@ -41,11 +45,12 @@ __all__ = [
     "WhitenessTest",
     "YuleWalkerModel",
     "denoise",
+    "effective_memory",
     "estimate_noise_var",
     "estimate_sigma",
-    "local_moments",
     "identify",
     "link",
+    "local_moments",
     "model_from_noisy",
     "sample_correlation",
     "sample_product_field",

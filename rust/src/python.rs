@@ -29,6 +29,7 @@ mod branching;
 mod filterbank;
 mod kalman;
 mod segment;
+mod trajectory;
 
 pyo3::create_exception!(
     _core,
@@ -697,6 +698,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     kalman::register(m)?;
     filterbank::register(m)?;
     segment::register(m)?;
+    trajectory::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;
