@@ -279,30 +279,74 @@ def type_confusion(
     >>> result.table.columns.tolist()
     ['bank', 'frame', 'confusion', 'low', 'high', 'trials']
     """
+    jobs = plan(models, n_frames, runs, seed, threads)
+    partials = [run_job(job) for job in tqdm.tqdm(jobs, disable=not progress, desc="type confusion")]
+    return combine(jobs, partials)
+
+
+@dataclass(frozen=True)
+class Job:
+    """One independent piece of :func:`type_confusion`: `runs` trajectories of type `index`
+    of bank `label`, identified by that bank, from their own seed."""
+
+    label: str
+    index: int
+    bank: tuple[LinearGaussianModel, ...]
+    n_frames: int
+    runs: int
+    seed: np.random.SeedSequence
+    threads: int | None
+
+
+def plan(
+    models: Mapping[str, Sequence[LinearGaussianModel]] | None = None,
+    n_frames: int = 100,
+    runs: int = 1000,
+    seed: SeedLike = 0,
+    threads: int | None = None,
+) -> list[Job]:
+    """The jobs of :func:`type_confusion` (same arguments), one per bank and type, each with
+    its own child of the seed: run in any order or place, they give the same bits."""
     banks: dict[str, Sequence[LinearGaussianModel]] = dict(
         source_banks() if models is None else models
     )
     frames, runs = positive_int(n_frames, "n_frames"), positive_int(runs, "runs")
     root = np.random.SeedSequence(resolve_seed(seed))
-    jobs = [(label, i) for label, bank in banks.items() for i in range(len(bank_models(bank)))]
-    streams = iter(root.spawn(len(jobs)))
-    errors: dict[str, np.ndarray] = {label: np.zeros(frames) for label in banks}
-    for label, i in tqdm.tqdm(jobs, disable=not progress, desc="type confusion"):
-        candidates = banks[label]
-        rng = np.random.default_rng(next(streams))
-        _, z = candidates[i].simulate(frames, runs, seed=rng)
-        decisions = TypeIdentifier(candidates).run(z, threads=threads)
-        errors[label] += (decisions != i).sum(axis=0)
+    checked = {label: tuple(bank_models(bank)) for label, bank in banks.items()}
+    pairs = [(label, i) for label, bank in checked.items() for i in range(len(bank))]
+    if not pairs:
+        raise ValueError("models must hold at least one bank")
+    return [
+        Job(label, i, checked[label], frames, runs, child, threads)
+        for (label, i), child in zip(pairs, root.spawn(len(pairs)))
+    ]
+
+
+def run_job(job: Job) -> np.ndarray:
+    """The wrong decisions of one job, per frame (an int64 array of length n_frames)."""
+    rng = np.random.default_rng(job.seed)
+    _, z = job.bank[job.index].simulate(job.n_frames, job.runs, seed=rng)
+    decisions = TypeIdentifier(job.bank).run(z, threads=job.threads)
+    return np.asarray((decisions != job.index).sum(axis=0), dtype=np.int64)
+
+
+def combine(jobs: Sequence[Job], partials: Sequence[np.ndarray]) -> TypeConfusion:
+    """The result of :func:`type_confusion` from its jobs' partial results (job order)."""
+    errors: dict[str, np.ndarray] = {}
+    sizes: dict[str, int] = {}
+    for job, wrong in zip(jobs, partials):
+        errors[job.label] = errors.get(job.label, np.zeros(job.n_frames)) + wrong
+        sizes[job.label] = len(job.bank)
     rows = []
-    for label, bank in banks.items():
-        trials = runs * len(bank)
-        low, high = _wilson(errors[label], trials)
+    for label, wrong in errors.items():
+        trials = jobs[0].runs * sizes[label]
+        low, high = _wilson(wrong, trials)
         rows.append(
             pd.DataFrame(
                 {
                     "bank": label,
-                    "frame": np.arange(1, frames + 1),
-                    "confusion": errors[label] / trials,
+                    "frame": np.arange(1, len(wrong) + 1),
+                    "confusion": wrong / trials,
                     "low": low,
                     "high": high,
                     "trials": trials,

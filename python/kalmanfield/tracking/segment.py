@@ -239,6 +239,13 @@ def otsu_threshold(image: npt.ArrayLike, bins: int = 256) -> float:
     if values.min() == values.max():
         raise ValueError("Otsu's threshold of a constant image is undefined: give a number")
     counts, edges = np.histogram(values, bins=bins)
+    return otsu_from_histogram(counts, edges)
+
+
+def otsu_from_histogram(counts: np.ndarray, edges: np.ndarray) -> float:
+    """Otsu's threshold from a histogram (`counts` per bin between `edges`): the bin centre
+    that maximises the between-class variance. A stack counted chunk by chunk over the same
+    bins gets the threshold :func:`otsu_threshold` gets in memory."""
     centres = (edges[:-1] + edges[1:]) / 2
     weight_low = np.cumsum(counts)
     weight_high = np.cumsum(counts[::-1])[::-1]
