@@ -9,6 +9,8 @@ sources' Monte Carlo studies are in :mod:`kalmanfield.experiments`. The method p
 documentation give the formulas and sources.
 """
 
+from importlib import metadata as _metadata
+
 from . import _compat
 from .denoising import denoise, estimate_noise_var, estimate_sigma, local_moments
 from .field import ARFieldModel, FieldStream, sample_product_field
@@ -59,7 +61,10 @@ __all__ = [
     "wiener_error_map",
     "yule_walker",
 ]
-__version__ = "0.1.0"
+try:  # the version is Cargo.toml's, through the installed package's metadata
+    __version__ = _metadata.version("kalmanfield")
+except _metadata.PackageNotFoundError:  # a source tree on sys.path, not installed
+    __version__ = "0+unknown"
 
 # Public objects say they are kalmanfield's: pickles and reprs do not depend on the module
 # that defines them inside the package.
