@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..experiments.registry import EXPERIMENTS, run_experiment
 from ..io._optional import optional
-from ._common import OK, common, say
+from ._common import OK, common, positive_int, say
 
 
 def register(commands: argparse._SubParsersAction) -> None:
@@ -23,7 +23,8 @@ def register(commands: argparse._SubParsersAction) -> None:
             if option.name == "seed":
                 continue
             q.add_argument(f"--{option.name.replace('_', '-')}", dest=option.name,
-                           type=option.kind, default=option.default,
+                           type=positive_int if option.kind is int else option.kind,
+                           default=option.default,
                            help=f"{option.help} (default {option.default})")
         q.add_argument("--out", type=Path, default=Path("."), help="output folder (default .)")
         q.add_argument("--scheduler", metavar="ADDRESS",
@@ -36,9 +37,6 @@ def register(commands: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     spec = EXPERIMENTS[args.experiment]
     settings = {o.name: getattr(args, o.name) for o in spec.options}
-    for name, value in settings.items():
-        if isinstance(value, int) and value < 1 and name != "seed":
-            raise ValueError(f"--{name.replace('_', '-')} must be positive, got {value}")
     optional("matplotlib", "the experiment's plot")
     if args.scheduler:
         from ..dask import run_experiment as on_cluster

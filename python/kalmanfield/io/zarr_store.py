@@ -58,7 +58,7 @@ def open_zarr(path: PathLike) -> Any:
     >>> import numpy as np
     >>> from kalmanfield import io
     >>> path = tempfile.mkdtemp() + "/frames.zarr"
-    >>> io.write_zarr(path, np.zeros((4, 16, 16)), chunks=(2, 16, 16))
+    >>> _ = io.write_zarr(path, np.zeros((4, 16, 16)), chunks=(2, 16, 16))
     >>> io.open_zarr(path).chunks
     (2, 16, 16)
     """
