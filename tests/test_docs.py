@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import kalmanfield as kf
-from kalmanfield import experiments
+from kalmanfield import experiments, trajectory
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
@@ -32,11 +32,13 @@ READ_FILES = sorted(
     ]
 )
 #: the names the API pages document: every name of kalmanfield.__all__, and the functions and
-#: classes of the subpackages imported by their own path ("experiments.type_confusion")
+#: classes of the subpackages that users import by their own path ("experiments.type_confusion",
+#: the trajectory domain's result types and plots: "trajectory.plot_gains")
 PUBLIC = {name: getattr(kf, name) for name in kf.__all__} | {
-    f"experiments.{name}": getattr(experiments, name)
-    for name in experiments.__all__
-    if callable(getattr(experiments, name))
+    f"{sub.__name__.rpartition('.')[2]}.{name}": getattr(sub, name)
+    for sub in (experiments, trajectory)
+    for name in sub.__all__
+    if callable(getattr(sub, name)) and name not in kf.__all__
 }
 SECTION = re.compile(r"§(\d+(?:\.\d+)?)(?:[–-](\d+(?:\.\d+)?))?")
 SOURCE_CITATION = re.compile(r"\[(?:P|K93|K95|F|I)\b[^\]]*\]")
@@ -73,10 +75,14 @@ def test_public_name_has_an_examples_section(name):
 
 def public_members(obj):
     """`obj` and, for a class, its public methods (static and class methods included) and
-    properties defined in kalmanfield."""
+    properties defined in kalmanfield (in the class or a kalmanfield base class)."""
     yield obj
     if inspect.isclass(obj):
-        for attr, member in vars(obj).items():
+        members = {}
+        for cls in reversed(obj.__mro__):
+            if cls.__module__.startswith("kalmanfield"):
+                members |= vars(cls)
+        for attr, member in members.items():
             if isinstance(member, (staticmethod, classmethod)):
                 member = member.__func__
             if not attr.startswith("_") and (
