@@ -12,13 +12,13 @@
 //! from the neighbours), σ kept; where a box holds no observed pixel, it is widened until it
 //! holds one.
 
-use crate::banded::fused_available;
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::local_moments::local_moments;
 use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::{model_ar_order, RowModels, ScalarRowFilter};
 use crate::scratch::Scratch;
+use crate::simd::{self, Arith, Kernel};
 use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
 
@@ -79,10 +79,10 @@ fn frame(
     settings: &AdaptiveSettings,
     out: &mut [f64],
 ) -> Result<()> {
-    // a pool thread may hold dirty upper vector halves (see `vector_state`): the median and
+    // a pool thread may hold dirty upper vector halves (see `simd::clear_upper_state`): the median and
     // the final x̂ below are baseline SSE2 code (the box moments and the normalisation run
     // their AVX2 builds where the CPU has them)
-    crate::vector_state::clear_upper_state();
+    simd::clear_upper_state();
     let noise_var = settings.noise_var;
     // `out` holds μ, then x̂; `scale` the box variance, then σ
     let mut scale = Scratch::zeros(z.len());
@@ -125,25 +125,40 @@ fn normalise(
     weights: &mut [f64],
     noise_var: f64,
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if fused_available() {
-        // SAFETY: the CPU has FMA and AVX2.
-        return unsafe { normalise_avx2(z, mean, scale, residual, weights, noise_var) };
-    }
-    normalise_pixels(z, mean, scale, residual, weights, noise_var)
+    simd::dispatch(Normalise {
+        z,
+        mean,
+        scale,
+        residual,
+        weights,
+        noise_var,
+    })
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma,avx2")]
-unsafe fn normalise_avx2(
-    z: &[f64],
-    mean: &[f64],
-    scale: &mut [f64],
-    residual: &mut [f64],
-    weights: &mut [f64],
+/// The arguments of [`normalise_pixels`], a [`Kernel`] of `simd::dispatch`.
+struct Normalise<'a> {
+    z: &'a [f64],
+    mean: &'a [f64],
+    scale: &'a mut [f64],
+    residual: &'a mut [f64],
+    weights: &'a mut [f64],
     noise_var: f64,
-) {
-    normalise_pixels(z, mean, scale, residual, weights, noise_var)
+}
+
+impl Kernel for Normalise<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<A: Arith>(self) {
+        let Normalise {
+            z,
+            mean,
+            scale,
+            residual,
+            weights,
+            noise_var,
+        } = self;
+        normalise_pixels(z, mean, scale, residual, weights, noise_var)
+    }
 }
 
 #[inline(always)]

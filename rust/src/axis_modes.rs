@@ -50,7 +50,7 @@ impl AxisModes {
             params,
         )
         .map_err(|e| FieldError::InvalidParameter(format!("eigendecomposition failed: {e:?}")))?;
-        crate::vector_state::clear_upper_state();
+        crate::simd::clear_upper_state();
         let raw = raw.column_vector();
         let largest = (0..size).map(|j| raw[j]).fold(0.0f64, f64::max);
         let values = (0..size).map(|j| raw[j].max(1e-15 * largest)).collect();

@@ -6,7 +6,8 @@
 //! vector instruction serves all of them). Every lane runs the same scalar arithmetic, so a
 //! factor does not depend on which rows share its batch.
 
-use crate::banded::{fused_available, substitute, Arith, Fused, Plain, SymmetricBand};
+use crate::banded::{substitute, SymmetricBand};
+use crate::simd::{self, Arith, Kernel};
 use crate::error::{FieldError, Result};
 
 /// Matrices factored side by side.
@@ -25,8 +26,6 @@ pub struct BandLdlBatch {
     lower: Vec<Lanes>,
     /// 1/D_ii.
     inverse_pivot: Vec<Lanes>,
-    /// Solve with FMA (see `BandCholesky`).
-    fused: bool,
 }
 
 impl BandLdlBatch {
@@ -37,7 +36,6 @@ impl BandLdlBatch {
             bandwidth,
             lower: vec![[0.0; LANES]; (size + bandwidth) * bandwidth],
             inverse_pivot: vec![[0.0; LANES]; size],
-            fused: fused_available(),
         }
     }
 
@@ -66,24 +64,14 @@ impl BandLdlBatch {
                  block entries"
             )));
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.fused {
-            // SAFETY: `fused` is set only when the CPU has AVX2. The arithmetic is the plain
-            // multiply/add of the portable build (Rust never contracts to FMA): same bits.
-            return unsafe { self.factor_avx2(&bases, blocks, order) };
-        }
-        self.factor_with(&bases, blocks, order)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn factor_avx2(
-        &mut self,
-        bases: &[&SymmetricBand; LANES],
-        blocks: &[Lanes],
-        order: usize,
-    ) -> Result<()> {
-        self.factor_with(bases, blocks, order)
+        // the arithmetic is the plain multiply/add in either build (Rust never contracts to
+        // FMA): the same bits, the lanes vectorised where AVX2 runs
+        simd::dispatch(Factor {
+            batch: self,
+            bases: &bases,
+            blocks,
+            order,
+        })
     }
 
     /// The row filters' bandwidths get their own inlined copy (unrolled inner loops).
@@ -169,18 +157,11 @@ impl BandLdlBatch {
             "BandLdlBatch::solve_in_place: lane {lane} or length {} out of range",
             x.len()
         );
-        #[cfg(target_arch = "x86_64")]
-        if self.fused {
-            // SAFETY: `fused` is set only when the CPU has FMA and AVX2.
-            return unsafe { self.solve_fused(lane, x) };
-        }
-        self.solve_with::<Plain>(lane, x)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "fma,avx2")]
-    unsafe fn solve_fused(&self, lane: usize, x: &mut [f64]) {
-        self.solve_with::<Fused>(lane, x)
+        simd::dispatch(Solve {
+            batch: self,
+            lane,
+            x,
+        })
     }
 
     #[inline(always)]
@@ -231,6 +212,37 @@ impl BandLdlBatch {
             }
             x[i] = acc;
         }
+    }
+}
+
+/// The factorisation of a batch, a [`Kernel`] of `simd::dispatch`.
+struct Factor<'a> {
+    batch: &'a mut BandLdlBatch,
+    bases: &'a [&'a SymmetricBand; LANES],
+    blocks: &'a [Lanes],
+    order: usize,
+}
+
+impl Kernel for Factor<'_> {
+    type Output = Result<()>;
+    #[inline(always)]
+    fn run<A: Arith>(self) -> Result<()> {
+        self.batch.factor_with(self.bases, self.blocks, self.order)
+    }
+}
+
+/// The solve of one lane, a [`Kernel`] of `simd::dispatch` (with FMA where the CPU has it).
+struct Solve<'a> {
+    batch: &'a BandLdlBatch,
+    lane: usize,
+    x: &'a mut [f64],
+}
+
+impl Kernel for Solve<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<A: Arith>(self) {
+        self.batch.solve_with::<A>(self.lane, self.x)
     }
 }
 
@@ -355,6 +367,8 @@ mod tests {
             assert_eq!(x, y);
         }
     }
+
+    use crate::simd::Plain;
 
     #[test]
     fn fused_plain_and_dynamic_solves_agree() {

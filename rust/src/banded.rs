@@ -2,11 +2,9 @@
 //! the quasi-optimal row filter (SPEC §2.3 generalised).
 
 use crate::error::{FieldError, Result};
-#[cfg(target_arch = "x86_64")]
-use crate::four_lanes::Avx2Lanes;
-use crate::four_lanes::FourLanes;
+use crate::simd::{self, Arith, Kernel};
 use crate::steady_band::{FactorCoefficients, Steady};
-use crate::steady_blocks::{block_size, Column, SteadyBlocks};
+use crate::steady_blocks::{block_size, SteadyBlocks};
 use std::ops::Range;
 
 /// Runs `body` for r = 0, 1, …, B − 1 (B ≤ 11) written out, not as a loop (see
@@ -239,7 +237,6 @@ impl SymmetricBand {
             strided: None,
             steady: None,
             blocks: None,
-            fused: fused_available(),
         };
         let block = snap
             .as_ref()
@@ -322,68 +319,6 @@ pub struct BandCholesky {
     strided: Option<Strided>,
     steady: Option<Steady>,
     blocks: Option<SteadyBlocks>,
-    /// The CPU has FMA and AVX2: the solves run the fused-multiply-add build of the kernels
-    /// (one rounding and one latency per step instead of two). Decided once per process, so
-    /// that every thread produces the same bits.
-    fused: bool,
-}
-
-/// Whether the fused build of the solve kernels can run on this CPU.
-pub(crate) fn fused_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("fma") && std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// The arithmetic of the solve kernels. The crate is built for baseline x86-64, where
-/// `mul_add` would be a slow library call and Rust never contracts `a * b + c` by itself,
-/// so the kernels are generic over it and instantiated fused only under `target_feature`.
-pub(crate) trait Arith {
-    /// The four-lane vectors of the block recursions (`steady_blocks`), same arithmetic.
-    type FourLanes: FourLanes;
-    /// c − a·b.
-    fn sub_product(c: f64, a: f64, b: f64) -> f64;
-    /// c + a·b.
-    fn add_product(c: f64, a: f64, b: f64) -> f64;
-}
-
-/// Separate multiply and add (portable).
-pub(crate) struct Plain;
-
-/// Fused multiply-add: only instantiated inside `BandCholesky::solve_fused_fixed`.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) struct Fused;
-
-impl Arith for Plain {
-    type FourLanes = Column;
-    #[inline(always)]
-    fn sub_product(c: f64, a: f64, b: f64) -> f64 {
-        c - a * b
-    }
-    #[inline(always)]
-    fn add_product(c: f64, a: f64, b: f64) -> f64 {
-        c + a * b
-    }
-}
-
-impl Arith for Fused {
-    #[cfg(target_arch = "x86_64")]
-    type FourLanes = Avx2Lanes;
-    #[cfg(not(target_arch = "x86_64"))]
-    type FourLanes = Column;
-    #[inline(always)]
-    fn sub_product(c: f64, a: f64, b: f64) -> f64 {
-        (-a).mul_add(b, c)
-    }
-    #[inline(always)]
-    fn add_product(c: f64, a: f64, b: f64) -> f64 {
-        a.mul_add(b, c)
-    }
 }
 
 /// Segments solved at once by the segmented solves: their latency chains overlap, and one
@@ -640,21 +575,58 @@ thread_local! {
     static SCRATCH: std::cell::Cell<Vec<Lanes>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
-/// `$factor.$kernel::<B>($x, $rhs)` for the bandwidths with a fixed kernel (unrolled inner
-/// products), the dynamic solve for the others.
+/// `$solve` with `$b` bound to the factor's bandwidth as a constant, for the bandwidths
+/// with a fixed kernel (unrolled inner products); `$dynamic` for the others.
 macro_rules! by_bandwidth {
-    ($factor:ident, $kernel:ident, $x:ident, $rhs:ident) => {
+    ($factor:expr, |$b:ident| $solve:expr, $dynamic:expr) => {
         match $factor.bandwidth {
-            1 => $factor.$kernel::<1>($x, $rhs),
-            2 => $factor.$kernel::<2>($x, $rhs),
-            3 => $factor.$kernel::<3>($x, $rhs),
-            5 => $factor.$kernel::<5>($x, $rhs),
-            7 => $factor.$kernel::<7>($x, $rhs),
-            11 => $factor.$kernel::<11>($x, $rhs),
-            19 => $factor.$kernel::<19>($x, $rhs),
-            _ => $factor.solve_dynamic($x),
+            1 => {
+                const $b: usize = 1;
+                $solve
+            }
+            2 => {
+                const $b: usize = 2;
+                $solve
+            }
+            3 => {
+                const $b: usize = 3;
+                $solve
+            }
+            5 => {
+                const $b: usize = 5;
+                $solve
+            }
+            7 => {
+                const $b: usize = 7;
+                $solve
+            }
+            11 => {
+                const $b: usize = 11;
+                $solve
+            }
+            19 => {
+                const $b: usize = 19;
+                $solve
+            }
+            _ => $dynamic,
         }
     };
+}
+
+/// One solve of a factor with a fixed bandwidth B, a [`Kernel`] of `simd::dispatch`: the
+/// fused build runs one rounding and one latency per step instead of two.
+struct FixedSolve<'a, const B: usize> {
+    factor: &'a BandCholesky,
+    x: &'a mut [f64],
+    rhs: Rhs,
+}
+
+impl<const B: usize> Kernel for FixedSolve<'_, B> {
+    type Output = ();
+    #[inline(always)]
+    fn run<A: Arith>(self) {
+        self.factor.solve_fixed::<A, B>(self.x, self.rhs)
+    }
 }
 
 impl BandCholesky {
@@ -743,37 +715,34 @@ impl BandCholesky {
         self.solve_rhs(x, rhs)
     }
 
-    /// The solve, on the CPU's best kernels.
+    /// The solve, on the CPU's best kernels. One function per bandwidth and build (see
+    /// `simd::dispatch`): with the kernels of every bandwidth inlined into one function,
+    /// the release test binary took 43 minutes to build instead of 4.5 (same bits, same
+    /// speed).
     fn solve_rhs(&self, x: &mut [f64], rhs: Rhs) {
-        #[cfg(target_arch = "x86_64")]
-        if self.fused {
-            // SAFETY: `fused` is set only when the CPU has FMA and AVX2.
-            return unsafe { by_bandwidth!(self, solve_fused_fixed, x, rhs) };
-        }
-        self.solve_plain(x, rhs)
+        by_bandwidth!(
+            self,
+            |B| simd::dispatch(FixedSolve::<B> {
+                factor: self,
+                x,
+                rhs
+            }),
+            self.solve_dynamic(x)
+        )
     }
 
-    /// The solve with separate multiplies and adds (the portable kernels).
+    /// The solve with separate multiplies and adds (the portable kernels), for the tests.
+    #[cfg(test)]
     fn solve_plain(&self, x: &mut [f64], rhs: Rhs) {
-        by_bandwidth!(self, solve_plain_fixed, x, rhs)
-    }
-
-    /// One function per bandwidth: with the kernels of every bandwidth inlined into one
-    /// function, LLVM's loop passes (each loop's pass costs in the size of the whole
-    /// function) took most of the crate's build time, and the release test binary took
-    /// 43 minutes to build instead of 4.5 (same bits, same speed).
-    #[inline(never)]
-    fn solve_plain_fixed<const B: usize>(&self, x: &mut [f64], rhs: Rhs) {
-        self.solve_fixed::<Plain, B>(x, rhs)
-    }
-
-    /// The kernels compiled with FMA and AVX2 (they are all `inline(always)` into this
-    /// function), one function per bandwidth as [`Self::solve_plain_fixed`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "fma,avx2")]
-    #[inline(never)]
-    unsafe fn solve_fused_fixed<const B: usize>(&self, x: &mut [f64], rhs: Rhs) {
-        self.solve_fixed::<Fused, B>(x, rhs)
+        by_bandwidth!(
+            self,
+            |B| simd::run_plain(FixedSolve::<B> {
+                factor: self,
+                x,
+                rhs
+            }),
+            self.solve_dynamic(x)
+        )
     }
 
     /// Substitutions with the last B results kept in registers and the pre-scaled
@@ -1397,7 +1366,7 @@ mod tests {
     #[test]
     fn fused_and_plain_solves_agree() {
         // solve_in_place takes the fused kernels when the CPU has FMA
-        println!("fused kernels: {}", fused_available());
+        println!("fused kernels: {}", simd::fused_available());
         for (b, n) in test_cases() {
             let ch = test_matrix(n, b).cholesky().unwrap();
             let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();

@@ -6,6 +6,7 @@
 //! moments are those of the box's other pixels, and NaN where the box holds none.
 
 use crate::error::{FieldError, Result};
+use crate::simd::{self, Arith, Kernel};
 use rayon::prelude::*;
 
 /// Box mean and (biased) variance of each of `frames` images (row-major height × width) over
@@ -67,24 +68,30 @@ fn frame_moments<const MASKED: bool>(
     mean: &mut [f64],
     var: &mut [f64],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::banded::fused_available() {
-        // SAFETY: the CPU has FMA and AVX2.
-        return unsafe { frame_moments_avx2::<MASKED>(z, shift, shape, mean, var) };
-    }
-    frame_moments_of::<MASKED>(z, shift, shape, mean, var)
+    simd::dispatch(FrameMoments::<MASKED> {
+        z,
+        shift,
+        shape,
+        mean,
+        var,
+    })
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma,avx2")]
-unsafe fn frame_moments_avx2<const MASKED: bool>(
-    z: &[f64],
+/// The arguments of [`frame_moments_of`], a [`Kernel`] of `simd::dispatch`.
+struct FrameMoments<'a, const MASKED: bool> {
+    z: &'a [f64],
     shift: f64,
     shape: (usize, usize, usize),
-    mean: &mut [f64],
-    var: &mut [f64],
-) {
-    frame_moments_of::<MASKED>(z, shift, shape, mean, var)
+    mean: &'a mut [f64],
+    var: &'a mut [f64],
+}
+
+impl<const MASKED: bool> Kernel for FrameMoments<'_, MASKED> {
+    type Output = ();
+    #[inline(always)]
+    fn run<A: Arith>(self) {
+        frame_moments_of::<MASKED>(self.z, self.shift, self.shape, self.mean, self.var)
+    }
 }
 
 /// The box sums along the rows of the 2r + 1 rows in the window are kept in a ring; the

@@ -8,6 +8,7 @@
 //! columns, then column by column over the tail of the row. Every output is summed in the
 //! same order either way, so the bits do not depend on the block length.
 
+use crate::simd::{block, block_mut};
 use crate::vector_row_filter::{pixel_in_range, Small};
 use std::array::from_fn;
 use std::ops::Range;
@@ -135,18 +136,6 @@ impl<const N: usize> ColumnMatrix<N> {
             sum
         })
     }
-}
-
-/// The K entries of v from `at`, as an array (also the block solves' blocks, `steady_blocks`).
-#[inline(always)]
-pub(crate) fn block<const K: usize>(v: &[f64], at: usize) -> &[f64; K] {
-    v[at..at + K].try_into().unwrap()
-}
-
-/// The K entries of v from `at`, to write.
-#[inline(always)]
-pub(crate) fn block_mut<const K: usize>(v: &mut [f64], at: usize) -> &mut [f64; K] {
-    (&mut v[at..at + K]).try_into().unwrap()
 }
 
 /// out[c] = h · x_c for the K/n columns c of a block (`out` starts at its first column).

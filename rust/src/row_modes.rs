@@ -24,7 +24,7 @@
 
 use crate::axis_model::AxisModel;
 use crate::axis_modes::AxisModes;
-use crate::banded::{Arith, Plain};
+use crate::simd::{self, Arith, Kernel};
 use crate::error::Result;
 use crate::vector_row_filter::Small;
 use faer::Mat;
@@ -299,12 +299,21 @@ const BAND_ROWS: usize = 32;
 /// products u_ℓj u_(ℓ+d)j per lag made and faulted in 32 MB per lag at W = 2048, ~3/4 of
 /// building a plan).
 fn exact_band(modes: &AxisModes, query: BandQuery) -> Vec<Mat<f64>> {
-    #[cfg(target_arch = "x86_64")]
-    if crate::banded::fused_available() {
-        // SAFETY: the CPU has FMA and AVX2.
-        return unsafe { exact_band_fused(modes, query) };
+    simd::dispatch(ExactBand { modes, query })
+}
+
+/// The arguments of [`exact_band_with`], a [`Kernel`] of `simd::dispatch`.
+struct ExactBand<'a> {
+    modes: &'a AxisModes,
+    query: BandQuery<'a>,
+}
+
+impl Kernel for ExactBand<'_> {
+    type Output = Vec<Mat<f64>>;
+    #[inline(always)]
+    fn run<A: Arith>(self) -> Vec<Mat<f64>> {
+        exact_band_with::<A>(self.modes, self.query)
     }
-    exact_band_with::<Plain>(modes, query)
 }
 
 /// What [`exact_band`] sums: the per-mode n×n covariances `modal`, lags 0..=`lags`, the rows
@@ -326,12 +335,6 @@ impl<'a> BandQuery<'a> {
             rows,
         }
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma,avx2")]
-unsafe fn exact_band_fused(modes: &AxisModes, query: BandQuery) -> Vec<Mat<f64>> {
-    exact_band_with::<crate::banded::Fused>(modes, query)
 }
 
 #[inline(always)]
@@ -442,10 +445,13 @@ mod tests {
                     .sum()
             };
             let query = BandQuery::new(&modal, n, lags, rows.clone());
-            let mut builds = vec![exact_band_with::<Plain>(&modes, query.clone())];
-            #[cfg(target_arch = "x86_64")]
-            if crate::banded::fused_available() {
-                builds.push(unsafe { exact_band_fused(&modes, query) });
+            let kernel = |query| ExactBand {
+                modes: &modes,
+                query,
+            };
+            let mut builds = vec![simd::run_plain(kernel(query.clone()))];
+            if simd::fused_available() {
+                builds.push(simd::dispatch(kernel(query)));
             }
             for band in builds {
                 assert_eq!(band.len(), lags + 1);

@@ -28,11 +28,12 @@
 
 use crate::axis_model::AxisModel;
 use crate::band_ldl::{BandLdlBatch, LANES};
-use crate::banded::{fused_available, BandCholesky, SymmetricBand};
+use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{try_zeros, FieldError, Result};
 use crate::field_model::FieldModel;
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
+use crate::simd::{self, Arith, Kernel};
 use crate::vector_row_filter::{
     all_in_range, check_sizes, out_of_range_pixels, pixel_in_range, RowDynamics, Small,
 };
@@ -55,6 +56,22 @@ struct Job<'a> {
     weights: Option<&'a [f64]>,
     height: usize,
     smooth: bool,
+}
+
+/// The passes of one run into `out`, a [`Kernel`] of `simd::dispatch` (the per-column
+/// loops run four columns per instruction where AVX2 runs).
+struct Passes<'a> {
+    filter: &'a ScalarRowFilter,
+    job: Job<'a>,
+    out: &'a mut [f64],
+}
+
+impl Kernel for Passes<'_> {
+    type Output = Result<()>;
+    #[inline(always)]
+    fn run<A: Arith>(self) -> Result<()> {
+        self.filter.passes(self.job, self.out)
+    }
 }
 
 /// Drift of the band from the one the row model was fitted to (relative to `drift_scale`)
@@ -998,27 +1015,16 @@ impl ScalarRowFilter {
             height,
             smooth,
         };
-        #[cfg(target_arch = "x86_64")]
-        if fused_available() {
-            // SAFETY: the CPU has FMA and AVX2.
-            unsafe { self.passes_avx2(job, out) }
-        } else {
-            self.passes(job, out)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.passes(job, out)
-    }
-
-    /// `passes` compiled for AVX2 (the per-column loops run four columns per instruction).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "fma,avx2")]
-    unsafe fn passes_avx2(&self, job: Job, out: &mut [f64]) -> Result<()> {
-        self.passes(job, out)
+        simd::dispatch(Passes {
+            filter: self,
+            job,
+            out,
+        })
     }
 
     #[inline(always)]
     fn passes(&self, job: Job, out: &mut [f64]) -> Result<()> {
-        crate::vector_state::clear_upper_state();
+        simd::clear_upper_state();
         let Job {
             plan,
             z,

@@ -33,8 +33,9 @@
 use std::ops::Range;
 
 use crate::banded::{
-    decayed_len, solve_by_segments, zero_input_response, Arith, Lanes, SegmentData, LANES,
+    decayed_len, solve_by_segments, zero_input_response, Lanes, SegmentData, LANES,
 };
+use crate::simd::Arith;
 
 /// Relative distances from the middle's coefficients within which a position is steady,
 /// tried smallest first (see [`snap_interior`]).

@@ -28,9 +28,8 @@ use std::ops::Range;
 
 use nalgebra::DMatrix;
 
-use crate::banded::{band_index, Arith, Rhs};
-use crate::four_lanes::FourLanes;
-use crate::row_columns::{block, block_mut};
+use crate::banded::{band_index, Rhs};
+use crate::simd::{block, block_mut, Arith, F64x4};
 use crate::steady_band::Snap;
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
@@ -200,17 +199,17 @@ impl SteadyBlocks {
         let x = &mut x[self.span()];
         macro_rules! run {
             ($g:literal, $k:literal) => {
-                // SAFETY: `A::FourLanes` needs AVX2 and FMA only for `Fused`, which is
-                // instantiated only inside `BandCholesky::solve_fused_fixed` (run on CPUs
-                // that have them).
+                // SAFETY: `A::Vector` needs AVX2 and FMA only for `Fused`, which is
+                // instantiated only inside `simd::dispatch`'s FMA build (run on CPUs that
+                // have them).
                 unsafe {
                     match (backward, rhs) {
-                        (true, _) => recursion::<A::FourLanes, $g, $k, $g, true>(&self.backward, x),
+                        (true, _) => recursion::<A::Vector, $g, $k, $g, true>(&self.backward, x),
                         (false, Rhs::Dense) => {
-                            recursion::<A::FourLanes, $g, $k, $g, false>(&self.forward, x)
+                            recursion::<A::Vector, $g, $k, $g, false>(&self.forward, x)
                         }
                         (false, Rhs::FirstOfBlock) => {
-                            recursion::<A::FourLanes, $g, $k, 1, false>(&self.forward, x)
+                            recursion::<A::Vector, $g, $k, 1, false>(&self.forward, x)
                         }
                     }
                 }
@@ -250,10 +249,10 @@ struct Loaded<V, const K: usize> {
 /// B = 11 solve.
 ///
 /// # Safety
-/// The CPU has the instructions of `V` (see [`FourLanes`]).
+/// The CPU has the instructions of `V` (see [`F64x4`]).
 #[inline(always)]
 unsafe fn recursion<
-    V: FourLanes,
+    V: F64x4,
     const G: usize,
     const K: usize,
     const IN: usize,
@@ -299,7 +298,7 @@ unsafe fn recursion<
 /// block's product by the newest block is a chain of its own, subtracted last.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // as `product_of_splats`
-unsafe fn pair<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
+unsafe fn pair<V: F64x4, const G: usize, const K: usize, const IN: usize>(
     m: &Loaded<V, K>,
     [x, x_next]: [&[f64; G]; 2],
     recent: &[V; K],
@@ -331,7 +330,7 @@ unsafe fn pair<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
 
 /// Block i of a [`recursion`] alone (the last of an odd count), newest block last.
 #[inline(always)]
-unsafe fn single<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
+unsafe fn single<V: F64x4, const G: usize, const K: usize, const IN: usize>(
     m: &Loaded<V, K>,
     x: &[f64; G],
     recent: &[V; K],
@@ -348,9 +347,9 @@ unsafe fn single<V: FourLanes, const G: usize, const K: usize, const IN: usize>(
 /// The columns of a block as vectors.
 ///
 /// # Safety
-/// As [`FourLanes::load`].
+/// As [`F64x4::load`].
 #[inline(always)]
-unsafe fn load_block<V: FourLanes>(m: &Block) -> [V; 4] {
+unsafe fn load_block<V: F64x4>(m: &Block) -> [V; 4] {
     [
         V::load(&m[0]),
         V::load(&m[1]),
@@ -362,7 +361,7 @@ unsafe fn load_block<V: FourLanes>(m: &Block) -> [V; 4] {
 /// m x, x from memory (its lanes broadcast by loads), x zero from lane IN on.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // iterator adapters (`skip`) were not unrolled: 3.7x slower
-unsafe fn product_of_splats<V: FourLanes, const IN: usize>(m: &[V; 4], x: &[f64]) -> V {
+unsafe fn product_of_splats<V: F64x4, const IN: usize>(m: &[V; 4], x: &[f64]) -> V {
     let mut acc = V::mul(m[0], V::splat(&x[0]));
     for q in 1..IN {
         acc = V::add_product(acc, m[q], V::splat(&x[q]));
@@ -373,7 +372,7 @@ unsafe fn product_of_splats<V: FourLanes, const IN: usize>(m: &[V; 4], x: &[f64]
 /// m v, v in a register (its lanes broadcast by shuffles).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // as `product_of_splats`
-fn product<V: FourLanes, const G: usize>(m: &[V; 4], v: V) -> V {
+fn product<V: F64x4, const G: usize>(m: &[V; 4], v: V) -> V {
     let mut acc = V::mul(m[0], v.lane(0));
     for q in 1..G {
         acc = V::add_product(acc, m[q], v.lane(q));
@@ -398,7 +397,7 @@ fn columns(m: &DMatrix<f64>) -> Block {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::banded::{fused_available, Fused, Plain};
+    use crate::simd::{self, Kernel};
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -442,9 +441,20 @@ mod tests {
         }
     }
 
-    #[target_feature(enable = "fma,avx2")]
-    unsafe fn substitute_fused(plan: &SteadyBlocks, x: &mut [f64], backward: bool, rhs: Rhs) {
-        plan.substitute::<Fused>(x, backward, rhs)
+    /// One substitution of a plan, for `simd::dispatch`.
+    struct Substitute<'a> {
+        plan: &'a SteadyBlocks,
+        x: &'a mut [f64],
+        backward: bool,
+        rhs: Rhs,
+    }
+
+    impl Kernel for Substitute<'_> {
+        type Output = ();
+        #[inline(always)]
+        fn run<A: Arith>(self) {
+            self.plan.substitute::<A>(self.x, self.backward, self.rhs)
+        }
     }
 
     #[test]
@@ -483,13 +493,25 @@ mod tests {
                     let mut expected = x.clone();
                     one_at_a_time(steps, g, &mut expected[plan.span()], backward);
                     let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                    let substitute = |x: &mut [f64], fused: bool| {
+                        let kernel = Substitute {
+                            plan: &plan,
+                            x,
+                            backward,
+                            rhs,
+                        };
+                        if fused {
+                            simd::dispatch(kernel)
+                        } else {
+                            simd::run_plain(kernel)
+                        }
+                    };
                     let mut plain = x.clone();
-                    plan.substitute::<Plain>(&mut plain, backward, rhs);
+                    substitute(&mut plain, false);
                     let mut results = vec![plain];
-                    if fused_available() {
+                    if simd::fused_available() {
                         let mut fused = x.clone();
-                        // SAFETY: the CPU has FMA and AVX2.
-                        unsafe { substitute_fused(&plan, &mut fused, backward, rhs) };
+                        substitute(&mut fused, true);
                         results.push(fused);
                     }
                     for result in results {

@@ -143,7 +143,7 @@ impl VectorRowFilter {
     }
 
     fn schedule(&self, height: usize) -> Schedule {
-        crate::vector_state::clear_upper_state();
+        crate::simd::clear_upper_state();
         let w = self.width();
         let ratios: Vec<f64> = self.mode_var.iter().map(|v| self.noise_var / v).collect();
         let mut gains = Vec::new();
@@ -255,7 +255,7 @@ impl VectorRowFilter {
             1.0,
             faer_par,
         );
-        crate::vector_state::clear_upper_state();
+        crate::simd::clear_upper_state();
         let run = |(j, column): (usize, &mut [f64])| self.filter_mode(schedule, j, column, smooth);
         if par {
             modal.par_chunks_mut(height).enumerate().for_each(run);
@@ -275,7 +275,7 @@ impl VectorRowFilter {
 
     /// Kalman filter (+ RTS) of mode j over the rows; the column is replaced by the estimates.
     fn filter_mode(&self, schedule: &Schedule, j: usize, column: &mut [f64], smooth: bool) {
-        crate::vector_state::clear_upper_state();
+        crate::simd::clear_upper_state();
         let (n, w, height) = (self.dynamics.order, self.width(), column.len());
         let step = |t: usize| (t.min(schedule.steps) - 1) * w + j;
         let mut filtered = vec![[0.0f64; MAX_ROW_ORDER]; if smooth { height } else { 1 }];

@@ -90,7 +90,7 @@ pub fn wiener_error_map(
         1.0,
         Par::rayon(0),
     );
-    crate::vector_state::clear_upper_state();
+    crate::simd::clear_upper_state();
     Ok(())
 }
 

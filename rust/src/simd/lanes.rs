@@ -1,30 +1,29 @@
-//! Four-lane vectors for the block recursions of `steady_blocks`: one lane per position of a
-//! block (G ≤ 4), so that a block product is G multiply-adds of a matrix column by one
-//! broadcast lane. Two implementations of one interface: plain arrays (portable, separate
-//! multiply and add) and AVX2 registers with fused multiply-adds (x86-64).
+//! Vectors of four f64 lanes, for the block recursions of `linalg::banded::steady_blocks`
+//! (one lane per position of a block, G ≤ 4, so that a block product is G multiply-adds of
+//! a matrix column by one broadcast lane), and fixed-length blocks of a slice as arrays.
+//! Two implementations of one interface: plain arrays (portable, separate multiply and add)
+//! and AVX2 registers with fused multiply-adds (x86-64).
 //!
 //! The AVX2 kernels are written with intrinsics: with arrays, LLVM's vectoriser mixed the
 //! lanes of the two blocks of a look-ahead step into shuffled half-vectors, which ran
 //! slower than the plain recursion.
 
-use crate::steady_blocks::Column;
-
 /// A vector of four f64 lanes.
 ///
 /// # Safety
-/// Values come only from [`FourLanes::load`] and [`FourLanes::splat`], whose callers
+/// Values come only from [`F64x4::load`] and [`F64x4::splat`], whose callers
 /// guarantee the instructions the implementation needs; the arithmetic on values that
 /// exist is then safe.
-pub(crate) unsafe trait FourLanes: Copy {
+pub(crate) unsafe trait F64x4: Copy {
     /// The four lanes of `c`.
     ///
     /// # Safety
-    /// The CPU has the implementation's instructions (AVX2 and FMA for [`Avx2Lanes`]).
-    unsafe fn load(c: &Column) -> Self;
+    /// The CPU has the implementation's instructions (AVX2 and FMA for [`Avx2`]).
+    unsafe fn load(c: &[f64; 4]) -> Self;
     /// `x` in every lane.
     ///
     /// # Safety
-    /// As [`FourLanes::load`].
+    /// As [`F64x4::load`].
     unsafe fn splat(x: &f64) -> Self;
     /// Lane q (< 4) in every lane.
     fn lane(self, q: usize) -> Self;
@@ -41,9 +40,9 @@ pub(crate) unsafe trait FourLanes: Copy {
 }
 
 // SAFETY: plain arrays need no special instructions.
-unsafe impl FourLanes for Column {
+unsafe impl F64x4 for [f64; 4] {
     #[inline(always)]
-    unsafe fn load(c: &Column) -> Self {
+    unsafe fn load(c: &[f64; 4]) -> Self {
         *c
     }
     #[inline(always)]
@@ -77,34 +76,34 @@ unsafe impl FourLanes for Column {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use avx2::Avx2Lanes;
+pub(crate) use avx2::Avx2;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Column, FourLanes};
+    use super::F64x4;
     use std::arch::x86_64::*;
 
-    /// An AVX2 register; the multiply-adds are fused. Only instantiated inside
-    /// `BandCholesky::solve_fused_fixed` (compiled with AVX2 and FMA, run only on CPUs
-    /// that have them; and the tests' AVX2 wrapper), into which every method is inlined.
+    /// An AVX2 register; the multiply-adds are fused. Only instantiated by the `Fused`
+    /// arithmetic (`simd::dispatch`: compiled with AVX2 and FMA, run only on CPUs that have
+    /// them), into which every method is inlined.
     #[derive(Clone, Copy)]
-    pub(crate) struct Avx2Lanes(__m256d);
+    pub(crate) struct Avx2(__m256d);
 
-    // SAFETY (every `unsafe` block below): an `Avx2Lanes` exists only after `load` or
-    // `splat`, whose callers guarantee AVX2 and FMA.
-    unsafe impl FourLanes for Avx2Lanes {
+    // SAFETY (every `unsafe` block below): an `Avx2` exists only after `load` or `splat`,
+    // whose callers guarantee AVX2 and FMA.
+    unsafe impl F64x4 for Avx2 {
         #[inline(always)]
-        unsafe fn load(c: &Column) -> Self {
-            Avx2Lanes(_mm256_loadu_pd(c.as_ptr()))
+        unsafe fn load(c: &[f64; 4]) -> Self {
+            Avx2(_mm256_loadu_pd(c.as_ptr()))
         }
         #[inline(always)]
         unsafe fn splat(x: &f64) -> Self {
-            Avx2Lanes(_mm256_broadcast_sd(x))
+            Avx2(_mm256_broadcast_sd(x))
         }
         #[inline(always)]
         fn lane(self, q: usize) -> Self {
             let v = self.0;
-            Avx2Lanes(unsafe {
+            Avx2(unsafe {
                 match q {
                     0 => _mm256_broadcastsd_pd(_mm256_castpd256_pd128(v)),
                     1 => _mm256_permute4x64_pd::<0x55>(v),
@@ -115,19 +114,19 @@ mod avx2 {
         }
         #[inline(always)]
         fn mul(m: Self, v: Self) -> Self {
-            Avx2Lanes(unsafe { _mm256_mul_pd(m.0, v.0) })
+            Avx2(unsafe { _mm256_mul_pd(m.0, v.0) })
         }
         #[inline(always)]
         fn add_product(c: Self, m: Self, v: Self) -> Self {
-            Avx2Lanes(unsafe { _mm256_fmadd_pd(m.0, v.0, c.0) })
+            Avx2(unsafe { _mm256_fmadd_pd(m.0, v.0, c.0) })
         }
         #[inline(always)]
         fn sub_product(c: Self, m: Self, v: Self) -> Self {
-            Avx2Lanes(unsafe { _mm256_fnmadd_pd(m.0, v.0, c.0) })
+            Avx2(unsafe { _mm256_fnmadd_pd(m.0, v.0, c.0) })
         }
         #[inline(always)]
         fn sub(a: Self, b: Self) -> Self {
-            Avx2Lanes(unsafe { _mm256_sub_pd(a.0, b.0) })
+            Avx2(unsafe { _mm256_sub_pd(a.0, b.0) })
         }
         #[inline(always)]
         fn store_lanes<const G: usize>(self, out: &mut [f64; G]) {
@@ -149,4 +148,16 @@ mod avx2 {
             }
         }
     }
+}
+
+/// The K entries of v from `at`, as an array.
+#[inline(always)]
+pub(crate) fn block<const K: usize>(v: &[f64], at: usize) -> &[f64; K] {
+    v[at..at + K].try_into().unwrap()
+}
+
+/// The K entries of v from `at`, to write.
+#[inline(always)]
+pub(crate) fn block_mut<const K: usize>(v: &mut [f64], at: usize) -> &mut [f64; K] {
+    (&mut v[at..at + K]).try_into().unwrap()
 }
