@@ -2,8 +2,8 @@
 //! the optimal one on 512², one thread, plans built outside the timing.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::banded::SymmetricBand;
 use kalmanfield::cascade::sample_into;
+use kalmanfield::linalg::SymmetricBand;
 use kalmanfield::row_modes::ModeSet;
 use kalmanfield::scalar_row_filter::ScalarRowFilter;
 use kalmanfield::vector_row_filter::VectorRowFilter;

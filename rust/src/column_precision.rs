@@ -19,8 +19,8 @@
 //! filter uses this form for the modes with c ≤ [`INFORMATION_RATIO`] only.
 
 use crate::axis_model::AxisModel;
-use crate::banded::SymmetricBand;
 use crate::error::Result;
+use crate::linalg::SymmetricBand;
 use crate::vector_row_filter::{Small, MAX_ROW_ORDER};
 
 /// σ_θ²/v_j at or below which a mode's smoothed map comes from the information form: against

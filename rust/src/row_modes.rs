@@ -24,8 +24,8 @@
 
 use crate::axis_model::AxisModel;
 use crate::axis_modes::AxisModes;
-use crate::simd::{self, Arith, Kernel};
 use crate::error::Result;
+use crate::simd::{self, Arith, Kernel};
 use crate::vector_row_filter::Small;
 use faer::Mat;
 use std::ops::Range;

@@ -27,10 +27,9 @@
 //! (`propagated_models`; `RowModels::Nominal` keeps the plan's).
 
 use crate::axis_model::AxisModel;
-use crate::band_ldl::{BandLdlBatch, LANES};
-use crate::banded::{BandCholesky, SymmetricBand};
 use crate::error::{try_zeros, FieldError, Result};
 use crate::field_model::FieldModel;
+use crate::linalg::{BandCholesky, BandLdlBatch, SymmetricBand, LDL_LANES as LANES};
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};
 use crate::simd::{self, Arith, Kernel};

@@ -20,8 +20,8 @@
 //! per row, and W n_y (b + 1) doubles per row kept for the RTS pass.
 
 use super::{ScalarRowFilter, JITTERS};
-use crate::banded::SymmetricBand;
 use crate::error::Result;
+use crate::linalg::SymmetricBand;
 
 /// A band of blocks, lag by lag: `lags[d]` holds the n × n blocks Cov(v_ℓ, v_{ℓ+d}) of
 /// ℓ = 0..W − d, row-major, one after the other (entry (ℓ, a, b) at ℓ n² + a n + b).

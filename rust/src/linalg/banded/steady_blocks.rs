@@ -12,11 +12,11 @@
 //!   backward  u_c = C⁻ᵀ y_c − Σ_k (C⁻ᵀ L_kᵀ) u_{c+k},
 //!
 //! each product a few vector multiply-adds (one AVX2 vector per block column). Unlike the
-//! segmented solves of `steady_band`, nothing is corrected afterwards: those redo about B
-//! multiply-adds per position to correct the start of each segment, which doubles the work
+//! partitioned solves of `steady_band`, nothing is corrected afterwards: those redo about B
+//! multiply-adds per position to correct the start of each part, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the n_y = 3, 4 filters (every n_x,
 //! K = m = 2…4) and the n_y = 2 ones with m ≥ 4 (see [`block_size`]): (2,2) in blocks of
-//! four positions ran at 93 Mpixel/s causal against 140 by segments (with two blocks per
+//! four positions ran at 93 Mpixel/s causal against 140 by parts (with two blocks per
 //! step too). Each step solves two blocks, the second by a look-ahead from the same blocks
 //! as the first (see [`recursion`]): one block per step was bound by the latency of its
 //! chain through the newest block. What else was tried, and what it measured:
@@ -28,9 +28,19 @@ use std::ops::Range;
 
 use nalgebra::DMatrix;
 
-use crate::banded::{band_index, Rhs};
+use super::band::band_index;
+use super::steady_band::Snap;
 use crate::simd::{block, block_mut, Arith, F64x4};
-use crate::steady_band::Snap;
+
+/// What a solve knows of its right-hand side (see
+/// [`BandCholesky::solve_observed_in_place`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Rhs {
+    /// Any entries.
+    Dense,
+    /// Zero outside the first position of every block of the block plan.
+    FirstOfBlock,
+}
 
 /// One column of a G × G block, or one block of x (entries G.. zero).
 pub(crate) type Column = [f64; 4];
@@ -43,10 +53,10 @@ const MIN_BLOCKS: usize = 16;
 /// The block size G of a factor of bandwidth b whose interior repeats with `period`, if it
 /// is solved by blocks: G = the period when it is 3 or 4 (the n = 3, 4 row filters, every
 /// AR order m ≥ 2 along the row: B = n(m + 1) − 1, stored padded to a fixed bandwidth, see
-/// `banded`), G = 4 for period 2 beyond B = 7 (the n = 2 filters with m ≥ 4: (2,4) ran
-/// 1.55× faster than by segments; with m = 3, B = 7, no faster), or the old rule for the
+/// `cholesky`), G = 4 for period 2 beyond B = 7 (the n = 2 filters with m ≥ 4: (2,4) ran
+/// 1.55× faster than by parts; with m = 3, B = 7, no faster), or the old rule for the
 /// wide fixed bands (B = 11 in blocks of 3, B = 19 in blocks of 4) when the period divides
-/// it. The narrower bands are solved faster by segments.
+/// it. The narrower bands are solved faster by parts.
 pub(crate) fn block_size(period: usize, b: usize) -> Option<usize> {
     if period == 3 || period == 4 {
         return Some(period);
@@ -251,13 +261,7 @@ struct Loaded<V, const K: usize> {
 /// # Safety
 /// The CPU has the instructions of `V` (see [`F64x4`]).
 #[inline(always)]
-unsafe fn recursion<
-    V: F64x4,
-    const G: usize,
-    const K: usize,
-    const IN: usize,
-    const REV: bool,
->(
+unsafe fn recursion<V: F64x4, const G: usize, const K: usize, const IN: usize, const REV: bool>(
     steps: &BlockSteps,
     x: &mut [f64],
 ) {

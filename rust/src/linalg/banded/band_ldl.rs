@@ -6,9 +6,10 @@
 //! vector instruction serves all of them). Every lane runs the same scalar arithmetic, so a
 //! factor does not depend on which rows share its batch.
 
-use crate::banded::{substitute, SymmetricBand};
-use crate::simd::{self, Arith, Kernel};
+use super::band::SymmetricBand;
+use super::substitution::substitute;
 use crate::error::{FieldError, Result};
+use crate::simd::{self, Arith, Kernel};
 
 /// Matrices factored side by side.
 pub const LANES: usize = 8;
@@ -178,8 +179,8 @@ impl BandLdlBatch {
         }
     }
 
-    /// The shared window substitutions of `banded` (the newest result alone on the latency
-    /// chain); the backward one reads column i of L from the rows below it.
+    /// The shared window substitutions of `substitution` (the newest result alone on the
+    /// latency chain); the backward one reads column i of L from the rows below it.
     #[inline(always)]
     fn solve_fixed<A: Arith, const B: usize>(&self, lane: usize, x: &mut [f64]) {
         let n = self.size;

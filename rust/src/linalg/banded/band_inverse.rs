@@ -12,7 +12,7 @@
 //!
 //! every Z_kj on the right lying within the band (|k − j| < b) and already known. O(n b²).
 
-use crate::banded::band_index;
+use super::band::band_index;
 
 /// The lower band (same storage as the factor: rows of b + 1 entries, the diagonal last) of
 /// A⁻¹, A = L Lᵀ of order n and bandwidth b, `l` the factor's band.
@@ -55,7 +55,7 @@ pub(crate) fn selected_inverse(l: &[f64], n: usize, b: usize) -> Vec<f64> {
 
 #[cfg(test)]
 mod tests {
-    use crate::banded::SymmetricBand;
+    use crate::linalg::banded::band::SymmetricBand;
     use nalgebra::DMatrix;
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;

@@ -1,12 +1,12 @@
-//! Segmented solves of a band Cholesky factor with a steady interior (the row systems of the
+//! LaneMajor solves of a band Cholesky factor with a steady interior (the row systems of the
 //! quasi-optimal row filter, SPEC §2.3 generalised, once its model has settled).
 //!
 //! Away from the ends of a row, the factor of A = Λ + HᵀH/σ_θ² repeats with the period of
 //! the state order (the model along the row is stationary there). Over that interior the
-//! segmented substitutions of `banded` need no per-segment coefficients or zero-input
-//! responses: every segment sees the same ones, kept once (a cycle of lcm(B, period) steps,
+//! partitioned substitutions (`partitioned`) need no per-part coefficients or zero-input
+//! responses: every part sees the same ones, kept once (a cycle of lcm(B, period) steps,
 //! one response per window slot) and broadcast to all lanes, so the solve streams only x.
-//! The ends (the `lead` before the segments and the `tail` after them) are substituted one
+//! The ends (the `lead` before the parts and the `tail` after them) are substituted one
 //! position at a time with the factor's own coefficients.
 //!
 //! The interior is made exactly periodic when the factor is made ([`snap_interior`]): the
@@ -24,17 +24,17 @@
 //! move no more than that rounding already moved them: (4,4) at ρ = 0.9, W = 2048, the
 //! filter's outputs differ from the NumPy twin's by up to 2.98654e-6 (the conditioning of
 //! those systems) without the snap and 2.98659e-6 with it. The (4,4) factors at ρ ≥ 0.95
-//! would not be snapped even at 1e-7 (tried): they keep their rows and the per-segment
+//! would not be snapped even at 1e-7 (tried): they keep their rows and the per-part
 //! solves. Every solve of the factor (steady or not) uses the same rows.
 //!
 //! The wide bands (B = 11, 19) solve their steady interior by blocks (`steady_blocks`)
-//! instead of by segments.
+//! instead of by parts.
 
 use std::ops::Range;
 
-use crate::banded::{
-    decayed_len, solve_by_segments, zero_input_response, Lanes, SegmentData, LANES,
-};
+use super::lane_steps::{Lanes, LANES};
+use super::partitioned::{decayed_len, solve_by_parts, zero_input_response, PartData};
+use super::substitution::FactorCoefficients;
 use crate::simd::Arith;
 
 /// Relative distances from the middle's coefficients within which a position is steady,
@@ -46,8 +46,8 @@ const MIN_NOISE_ORDER: usize = 1024;
 /// The longest period looked for (the state order of the row filters is at most 4).
 const MAX_PERIOD: usize = 8;
 
-/// The plan of a steady segmented solve: LANES segments of `span` positions from x[start],
-/// span a multiple of the cycle lcm(B, period), so that step j of every segment has the
+/// The plan of a steady partitioned solve: LANES parts of `span` positions from x[start],
+/// span a multiple of the cycle lcm(B, period), so that step j of every part has the
 /// same phase.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Steady {
@@ -58,15 +58,15 @@ pub(crate) struct Steady {
 }
 
 /// One substitution of a [`Steady`] solve; step j' counts in the substitution's own order
-/// (backward: from the end of each segment).
+/// (backward: from the end of each part).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct SteadyDirection {
-    /// Per step of one cycle: 1/L_ii, then the B coefficients, shared by all segments.
+    /// Per step of one cycle: 1/L_ii, then the B coefficients, shared by all parts.
     pub(crate) steps: Vec<f64>,
-    /// Per offset t into a segment and window slot q: the response at t to a unit entry in
-    /// slot q of the segment's starting window; cut where every response has decayed.
+    /// Per offset t into a part and window slot q: the response at t to a unit entry in
+    /// slot q of the part's starting window; cut where every response has decayed.
     pub(crate) responses: Vec<f64>,
-    /// Per slot q and slot m: the response's window at the segment's end.
+    /// Per slot q and slot m: the response's window at the part's end.
     pub(crate) ends: Vec<f64>,
 }
 
@@ -169,35 +169,6 @@ fn longest(range: impl Fn(usize) -> (usize, usize)) -> (usize, (usize, usize)) {
         .expect("MAX_PERIOD > 0")
 }
 
-/// The factor's substitution coefficients (see `BandCholesky`): 1/L_ii and, per position,
-/// the B pre-scaled coefficients of each direction.
-pub(crate) struct FactorCoefficients<'a> {
-    pub(crate) bandwidth: usize,
-    pub(crate) inverse_diagonal: &'a [f64],
-    pub(crate) forward: &'a [f64],
-    pub(crate) backward: &'a [f64],
-}
-
-impl FactorCoefficients<'_> {
-    fn size(&self) -> usize {
-        self.inverse_diagonal.len()
-    }
-
-    /// Whether positions i and r have the same coefficients in both directions.
-    fn same(&self, i: usize, r: usize) -> bool {
-        let b = self.bandwidth;
-        let (fi, fr) = (
-            &self.forward[i * b..(i + 1) * b],
-            &self.forward[r * b..(r + 1) * b],
-        );
-        let (bi, br) = (
-            &self.backward[i * b..(i + 1) * b],
-            &self.backward[r * b..(r + 1) * b],
-        );
-        self.inverse_diagonal[i] == self.inverse_diagonal[r] && fi == fr && bi == br
-    }
-}
-
 fn lcm(a: usize, b: usize) -> usize {
     let gcd = |mut a: usize, mut b: usize| {
         while b != 0 {
@@ -210,7 +181,7 @@ fn lcm(a: usize, b: usize) -> usize {
 
 impl Steady {
     /// The steady plan of a factor (see [`snap_interior`]), if its exactly periodic interior
-    /// holds LANES segments of at least two cycles each.
+    /// holds LANES parts of at least two cycles each.
     pub(crate) fn new(f: &FactorCoefficients) -> Option<Steady> {
         let (n, b) = (f.size(), f.bandwidth);
         if n < 2 * MAX_PERIOD {
@@ -224,7 +195,7 @@ impl Steady {
         }
         let phase = |p: usize| reference(n, p, period);
         let forward_position = |j: usize| phase(lo + j);
-        // backward step j' is the position span − 1 − j' of a segment
+        // backward step j' is the position span − 1 − j' of a part
         let backward_position = |j: usize| phase(lo + span - 1 - j);
         Some(Steady {
             start: lo,
@@ -251,14 +222,14 @@ impl Steady {
         let groups = self.groups(B);
         let (forward, backward) = (self.forward.data(), self.backward.data());
         let shared = move |t: usize| t % groups * B * (B + 1);
-        solve_by_segments::<A, B, [f64]>(f, x, rows, self.start, forward, backward, shared);
+        solve_by_parts::<A, B, [f64]>(f, x, rows, self.start, forward, backward, shared);
     }
 }
 
 impl SteadyDirection {
-    /// This substitution for [`solve_by_segments`]: one set of end windows for all segments.
-    fn data(&self) -> SegmentData<'_, [f64]> {
-        SegmentData {
+    /// This substitution for [`solve_by_parts`]: one set of end windows for all parts.
+    fn data(&self) -> PartData<'_, [f64]> {
+        PartData {
             steps: &self.steps,
             responses: &self.responses,
             ends: &self.ends,
@@ -299,7 +270,7 @@ impl SteadyDirection {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::banded::SymmetricBand;
+    use crate::linalg::banded::band::SymmetricBand;
 
     /// A band matrix whose diagonals repeat with `period` (edges included: the factor still
     /// converges from both ends), optionally perturbed by a relative `noise` per entry.
@@ -458,7 +429,7 @@ mod tests {
     #[test]
     fn an_irregular_interior_gets_no_steady_plan() {
         // entries scattered by 1e-4, beyond every tolerance: nothing is snapped, the
-        // segmented solve takes over
+        // partitioned solve takes over
         let a = periodic(1000, 5, 1, 1e-4);
         assert!(!a.cholesky().unwrap().is_steady());
         let (_, x, y) = solves(&a);
