@@ -13,7 +13,7 @@
 //! holds one.
 
 use crate::error::{check_noise_var, FieldError, Result};
-use crate::field_model::FieldModel;
+use crate::field::FieldModel;
 use crate::local_moments::local_moments;
 use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::{model_ar_order, RowModels, ScalarRowFilter};

@@ -18,8 +18,8 @@
 //! magnitude at 1e-16). At c ≳ 1 the roles swap (I + c R_y⁻¹ takes R_y's condition), so the
 //! filter uses this form for the modes with c ≤ [`INFORMATION_RATIO`] only.
 
-use crate::axis_model::AxisModel;
 use crate::error::Result;
+use crate::field::AxisModel;
 use crate::linalg::SymmetricBand;
 use crate::vector_row_filter::{Small, MAX_ROW_ORDER};
 

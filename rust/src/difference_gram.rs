@@ -7,8 +7,8 @@
 //! sum of squares is wᵀ G w with G_ab = Σ_i Dᵃx_i Dᵇx_i. Unlike a quadratic form in the
 //! autocovariances of x, this one does not cancel catastrophically when ρ → 1.
 
-use crate::axis_lines::{AxisLines, LaneBlock};
 use crate::error::{FieldError, Result};
+use crate::field::{AxisLines, LaneBlock};
 
 /// Highest difference order of the kernel (identification tries multiplicities up to it).
 pub const MAX_DIFFERENCE_ORDER: usize = 8;

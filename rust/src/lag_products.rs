@@ -1,8 +1,8 @@
 //! Sums of lagged products along an axis: the sample autocovariance of every line, pooled
 //! (SPEC §1.6 diagnostics, residual whiteness).
 
-use crate::axis_lines::{AxisLines, LaneBlock};
 use crate::error::Result;
+use crate::field::{AxisLines, LaneBlock};
 
 /// S_h = Σ x_i x_{i+h} and the number of pairs N_h, h = 0..=max_lag, over all lines.
 #[derive(Debug, Clone, PartialEq)]

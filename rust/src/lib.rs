@@ -4,30 +4,22 @@
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
 pub mod adaptive_denoise;
-pub mod anisotropy;
-pub mod axis_lines;
-pub mod axis_model;
-pub mod axis_modes;
 pub mod branching;
-pub mod cascade;
 pub mod chi_squared;
 mod column_precision;
 pub mod difference_gram;
 pub mod error;
-pub mod field_model;
+pub mod field;
 pub mod lag_products;
 pub mod linalg;
 pub mod local_moments;
-pub mod noise;
 pub mod noise_level;
-pub mod product_field;
 mod row_columns;
 pub mod row_modes;
 pub mod scalar_row_filter;
 pub mod scratch;
 pub mod segment;
 mod simd;
-pub mod stationary_start;
 pub mod vector_row_filter;
 pub mod whitening;
 pub mod wiener_bound;
@@ -36,5 +28,3 @@ pub mod wiener_bound;
 mod python;
 
 pub use error::{FieldError, Result};
-pub use field_model::FieldModel;
-pub use noise::Noise;

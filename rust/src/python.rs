@@ -2,18 +2,18 @@
 //! every numerical check is done by the plain-Rust kernels, whose errors become ValueError.
 
 use crate::adaptive_denoise::{adaptive_denoise, AdaptiveSettings};
-use crate::anisotropy::anisotropy;
-use crate::cascade::{sample_into, stream_frame_into};
 use crate::chi_squared::{chi_squared_quantile, chi_squared_sf};
 use crate::difference_gram::difference_gram as gram_kernel;
 use crate::error::FieldError;
-use crate::field_model::FieldModel;
+use crate::field::anisotropy;
+use crate::field::product_field_into;
+use crate::field::AxisRecursion;
+use crate::field::FieldModel;
+use crate::field::{sample_into, stream_frame_into};
+use crate::field::{DrivingNoise, Real};
 use crate::lag_products::lag_products as lag_kernel;
-use crate::noise::{Noise, Real};
-use crate::product_field::product_field_into;
 use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
-use crate::stationary_start::AxisRecursion;
 use crate::vector_row_filter::VectorRowFilter;
 use crate::whitening::whiten_axis;
 use crate::wiener_bound::{wiener_bound as bound_kernel, wiener_error_map};
@@ -72,13 +72,13 @@ fn noise_slice<'a>(noise: &'a Option<PyReadonlyArrayDyn<'_, f64>>) -> PyResult<O
     noise.as_ref().map(|n| contiguous(n, "noise")).transpose()
 }
 
-fn seeded_or_given(seed: u64, given: Option<&[f64]>) -> Noise<'_> {
+fn seeded_or_given(seed: u64, given: Option<&[f64]>) -> DrivingNoise<'_> {
     match given {
-        Some(values) => Noise::Given {
+        Some(values) => DrivingNoise::Given {
             values,
             first_line: 0,
         },
-        None => Noise::Seeded(seed),
+        None => DrivingNoise::Seeded(seed),
     }
 }
 
@@ -132,7 +132,7 @@ fn stream_step<T: Real + Element>(
     shape: &[usize],
     history: &[Bound<'_, PyAny>],
     t: u64,
-    noise: Noise,
+    noise: DrivingNoise,
     threads: Option<usize>,
 ) -> PyResult<()> {
     let arrays = history_slices::<T>(history)?;
@@ -578,7 +578,7 @@ fn axis_correlation_table<'py>(
     lags: PyReadonlyArray1<'py, f64>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let (r, l) = (contiguous(&rhos, "rhos")?, contiguous(&lags, "lags")?);
-    let table = crate::axis_model::correlation_table(r, order, l)?;
+    let table = crate::field::correlation_table(r, order, l)?;
     PyArray1::from_vec(py, table).reshape([r.len(), l.len()])
 }
 
@@ -708,7 +708,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(whiten_axis_into, m)?)?;
     m.add_function(wrap_pyfunction!(chi2_sf, m)?)?;
     m.add_function(wrap_pyfunction!(chi2_quantile, m)?)?;
-    m.add("MAX_ORDER", crate::axis_model::MAX_ORDER)?;
+    m.add("MAX_ORDER", crate::field::MAX_ORDER)?;
     m.add(
         "MAX_DIFFERENCE_ORDER",
         crate::difference_gram::MAX_DIFFERENCE_ORDER,

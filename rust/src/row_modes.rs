@@ -22,9 +22,9 @@
 //!   band on every row of its plan (`ScalarRowFilter::splice_holds`); O(W'³) once instead
 //!   of O(W³), the exact band to that tolerance.
 
-use crate::axis_model::AxisModel;
-use crate::axis_modes::AxisModes;
 use crate::error::Result;
+use crate::field::AxisModel;
+use crate::field::AxisModes;
 use crate::simd::{self, Arith, Kernel};
 use crate::vector_row_filter::Small;
 use faer::Mat;

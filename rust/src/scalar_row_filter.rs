@@ -26,9 +26,9 @@
 //! depart from the nominal ones Λ_k is refitted to the filter's own prediction covariance
 //! (`propagated_models`; `RowModels::Nominal` keeps the plan's).
 
-use crate::axis_model::AxisModel;
 use crate::error::{try_zeros, FieldError, Result};
-use crate::field_model::FieldModel;
+use crate::field::AxisModel;
+use crate::field::FieldModel;
 use crate::linalg::{BandCholesky, BandLdlBatch, SymmetricBand, LDL_LANES as LANES};
 use crate::row_columns::{self as columns, for_order, Nominal, PerPixel, RtsRow};
 use crate::row_modes::{Fourier, ModeSet, RowModes, SPLICE_TOLERANCE};

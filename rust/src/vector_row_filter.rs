@@ -18,11 +18,11 @@
 //! in the rows' own basis the prior of n_y = 4 rows has a condition ~3e17 at ρ = 0.999, and
 //! the smoother, whose gain needs P_e⁻¹, lay up to 1.19× above the Wiener bound there.
 
-use crate::axis_model::AxisModel;
-use crate::axis_modes::AxisModes;
 use crate::column_precision::{ColumnPrecision, INFORMATION_RATIO};
 use crate::error::{try_zeros, FieldError, Result};
-use crate::field_model::FieldModel;
+use crate::field::AxisModel;
+use crate::field::AxisModes;
+use crate::field::FieldModel;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use nalgebra::{Matrix4, Vector4};

@@ -5,9 +5,9 @@
 //! covariance is (U_y ⊗ U_x) diag(f_ab) (U_y ⊗ U_x)ᵀ with f_ab = σ²λ_aμ_b s / (σ²λ_aμ_b + s),
 //! its trace / (H W) = mean f_ab and its diagonal (U_y∘U_y) F (U_x∘U_x)ᵀ.
 
-use crate::axis_modes::AxisModes;
 use crate::error::{FieldError, Result};
-use crate::field_model::FieldModel;
+use crate::field::AxisModes;
+use crate::field::FieldModel;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, Par};
 

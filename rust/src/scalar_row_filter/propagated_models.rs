@@ -490,7 +490,7 @@ fn sum(a: &SymmetricBand, b: &SymmetricBand) -> SymmetricBand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field_model::FieldModel;
+    use crate::field::FieldModel;
     use crate::row_modes::ModeSet;
     use faer::Mat;
 

@@ -1,9 +1,9 @@
 //! The N-axis separable autoregressive field model (SPEC §1.2):
 //! Π_k (1 - ρ_k z_k⁻¹)^{n_k} x = β ξ, with R(r̄) = σ² Π_k R_k(r_k).
 
-use crate::axis_model::AxisModel;
+use super::axis_model::AxisModel;
+use super::stationary_start::AxisRecursion;
 use crate::error::{FieldError, Result};
-use crate::stationary_start::AxisRecursion;
 use num_traits::Float;
 
 /// Smallest σ accepted, 2⁻⁵¹⁰ ≈ 3.0e-154: σ² = 2⁻¹⁰²⁰ is still a normal float64.

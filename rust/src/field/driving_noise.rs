@@ -6,60 +6,31 @@
 //! number of threads or the order lines are produced in, and frame `t` of a stream draws the
 //! same numbers as slice `t` of a one-shot sample of the same space–time model.
 
-use num_traits::Float;
+use super::real::Real;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-/// Floating-point types the kernels run in.
-pub trait Real: Float + Send + Sync + 'static {
-    /// Whether recursions along lines run two lines at a time. Not for f32: the compiler packs
-    /// the two lanes into a 4-lane register whose idle lanes can hold denormals, and the
-    /// microcode assists made it 5× slower than one line at a time.
-    const PAIRED_LINES: bool;
-
-    /// Rounds an f64 to this type.
-    fn from_f64(v: f64) -> Self;
-}
-
-impl Real for f64 {
-    const PAIRED_LINES: bool = true;
-
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
-}
-
-impl Real for f32 {
-    const PAIRED_LINES: bool = false;
-
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v as f32
-    }
-}
-
 /// Where the standard-normal driving noise of a grid comes from.
 #[derive(Debug, Clone, Copy)]
-pub enum Noise<'a> {
+pub enum DrivingNoise<'a> {
     /// Seeded streams, one per line (see the module docs).
     Seeded(u64),
     /// Caller-supplied noise in C order, covering the lines from `first_line` on.
     Given { values: &'a [f64], first_line: u64 },
 }
 
-impl Noise<'_> {
+impl DrivingNoise<'_> {
     /// Writes the noise of line `line` (of length `out.len()`) into `out`.
     pub fn fill<T: Real>(&self, out: &mut [T], line: u64) {
         match *self {
-            Noise::Seeded(seed) => {
+            DrivingNoise::Seeded(seed) => {
                 let mut rng = line_rng(seed, line);
                 for v in out.iter_mut() {
                     *v = T::from_f64(rng.sample::<f64, _>(StandardNormal));
                 }
             }
-            Noise::Given { values, first_line } => {
+            DrivingNoise::Given { values, first_line } => {
                 let len = out.len();
                 let start = (line - first_line) as usize * len;
                 for (v, &g) in out.iter_mut().zip(&values[start..start + len]) {
@@ -90,10 +61,10 @@ mod tests {
     fn lines_are_reproducible_and_distinct() {
         let mut a = vec![0.0f64; 64];
         let mut b = vec![0.0f64; 64];
-        Noise::Seeded(7).fill(&mut a, 3);
-        Noise::Seeded(7).fill(&mut b, 3);
+        DrivingNoise::Seeded(7).fill(&mut a, 3);
+        DrivingNoise::Seeded(7).fill(&mut b, 3);
         assert_eq!(a, b);
-        Noise::Seeded(7).fill(&mut b, 4);
+        DrivingNoise::Seeded(7).fill(&mut b, 4);
         assert_ne!(a, b);
     }
 
@@ -101,7 +72,7 @@ mod tests {
     fn standard_normal_moments() {
         let n = 200_000;
         let mut v = vec![0.0f64; n];
-        Noise::Seeded(1).fill(&mut v, 0);
+        DrivingNoise::Seeded(1).fill(&mut v, 0);
         let mean = v.iter().sum::<f64>() / n as f64;
         let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
         // 5 standard errors

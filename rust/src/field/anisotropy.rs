@@ -6,7 +6,7 @@
 //! positive orthant (τ depends on |u_k| only) in hyperspherical angles with a Gauss–Legendre
 //! product rule, which converges fast because τ is smooth inside the orthant.
 
-use crate::field_model::FieldModel;
+use super::field_model::FieldModel;
 
 /// A_τ of the model (needs at least two axes; for one axis it is 0 by definition).
 pub fn anisotropy(model: &FieldModel) -> f64 {

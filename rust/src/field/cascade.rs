@@ -11,10 +11,11 @@
 //! Every element is computed by the same arithmetic in the serial and the parallel paths, so
 //! the result does not depend on the number of threads.
 
+use super::driving_noise::DrivingNoise;
+use super::field_model::FieldModel;
+use super::real::Real;
+use super::stationary_start::AxisRecursion;
 use crate::error::{try_zeros, FieldError, Result};
-use crate::field_model::FieldModel;
-use crate::noise::{Noise, Real};
-use crate::stationary_start::AxisRecursion;
 use rayon::prelude::*;
 
 /// Grids smaller than this many elements are generated on one thread.
@@ -26,7 +27,7 @@ const CHUNK: usize = 256;
 
 /// Fills `out` (C order, `shape`) with one realisation of `model`.
 ///
-/// With `Noise::Given`, `values` must hold one standard-normal number per element (same shape).
+/// With `DrivingNoise::Given`, `values` must hold one standard-normal number per element (same shape).
 /// A model whose recursions T cannot carry (float32 states of a smooth model drift by up to
 /// O(σ), `AxisRecursion::new`) but float64 can is made in float64 and rounded once: the
 /// float64 field's values, rounded (a float64 copy of the grid in memory meanwhile).
@@ -34,7 +35,7 @@ pub fn sample_into<T: Real>(
     model: &FieldModel,
     out: &mut [T],
     shape: &[usize],
-    noise: Noise,
+    noise: DrivingNoise,
 ) -> Result<()> {
     check_grid(model.ndim(), out.len(), shape, "shape")?;
     check_noise(&noise, out.len())?;
@@ -62,7 +63,7 @@ pub fn stream_frame_into<T: Real>(
     frame_shape: &[usize],
     history: &[&[T]],
     t: u64,
-    noise: Noise,
+    noise: DrivingNoise,
 ) -> Result<()> {
     if model.ndim() < 2 {
         return Err(FieldError::InvalidParameter(
@@ -81,9 +82,9 @@ pub fn stream_frame_into<T: Real>(
     let lines = frame.len() / frame_shape[frame_shape.len() - 1];
     let first_line = t.wrapping_mul(lines as u64);
     let noise = match noise {
-        Noise::Given { values, .. } => {
+        DrivingNoise::Given { values, .. } => {
             check_noise(&noise, frame.len())?;
-            Noise::Given { values, first_line }
+            DrivingNoise::Given { values, first_line }
         }
         seeded => seeded,
     };
@@ -136,8 +137,8 @@ fn check_grid(ndim: usize, len: usize, shape: &[usize], what: &str) -> Result<()
     Ok(())
 }
 
-fn check_noise(noise: &Noise, len: usize) -> Result<()> {
-    if let Noise::Given { values, .. } = noise {
+fn check_noise(noise: &DrivingNoise, len: usize) -> Result<()> {
+    if let DrivingNoise::Given { values, .. } = noise {
         if values.len() != len {
             return Err(FieldError::Shape(format!(
                 "noise has {} elements but the grid has {len}",
@@ -158,7 +159,7 @@ fn generate<T: Real>(
     out: &mut [T],
     shape: &[usize],
     recs: &[AxisRecursion<T>],
-    noise: &Noise,
+    noise: &DrivingNoise,
     first_line: u64,
 ) {
     if use_threads(out.len()) {
@@ -180,7 +181,7 @@ fn generate_serial<T: Real>(
     out: &mut [T],
     shape: &[usize],
     recs: &[AxisRecursion<T>],
-    noise: &Noise,
+    noise: &DrivingNoise,
     first_line: u64,
 ) {
     generate_serial_then(out, shape, recs, noise, first_line, |_, _| {});
@@ -192,7 +193,7 @@ fn generate_serial_then<T: Real>(
     out: &mut [T],
     shape: &[usize],
     recs: &[AxisRecursion<T>],
-    noise: &Noise,
+    noise: &DrivingNoise,
     first_line: u64,
     mut finish: impl FnMut(usize, &mut [T]),
 ) {
@@ -232,7 +233,7 @@ fn generate_parallel<T: Real>(
     out: &mut [T],
     shape: &[usize],
     recs: &[AxisRecursion<T>],
-    noise: &Noise,
+    noise: &DrivingNoise,
     first_line: u64,
 ) {
     if shape.len() == 1 {
@@ -339,7 +340,7 @@ pub fn lines_into<T: Real>(
     block: &mut [T],
     width: usize,
     rec: &AxisRecursion<T>,
-    noise: &Noise,
+    noise: &DrivingNoise,
     first_line: u64,
 ) {
     for (k, line) in block.chunks_mut(width).enumerate() {
@@ -462,7 +463,7 @@ mod tests {
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| sample_into(model, &mut out, shape, Noise::Seeded(seed)))
+        pool.install(|| sample_into(model, &mut out, shape, DrivingNoise::Seeded(seed)))
             .unwrap();
         out
     }
@@ -517,7 +518,7 @@ mod tests {
                 &shape[1..],
                 &history,
                 t,
-                Noise::Seeded(5),
+                DrivingNoise::Seeded(5),
             )
             .unwrap();
             frames.push(frame);
@@ -529,15 +530,15 @@ mod tests {
     fn rejects_bad_grids() {
         let model = FieldModel::new(&[0.5, 0.5], &[1, 1], 1.0).unwrap();
         let mut out = vec![0.0f64; 6];
-        assert!(sample_into(&model, &mut out, &[2, 3, 1], Noise::Seeded(0)).is_err());
-        assert!(sample_into(&model, &mut out, &[2, 4], Noise::Seeded(0)).is_err());
+        assert!(sample_into(&model, &mut out, &[2, 3, 1], DrivingNoise::Seeded(0)).is_err());
+        assert!(sample_into(&model, &mut out, &[2, 4], DrivingNoise::Seeded(0)).is_err());
         let bad = [0.0, 1.0, f64::NAN, 0.0, 0.0, 0.0];
-        let given = Noise::Given {
+        let given = DrivingNoise::Given {
             values: &bad,
             first_line: 0,
         };
         assert!(sample_into(&model, &mut out, &[2, 3], given).is_err());
         let mut empty: Vec<f64> = vec![];
-        assert!(sample_into(&model, &mut empty, &[0, 3], Noise::Seeded(0)).is_err());
+        assert!(sample_into(&model, &mut empty, &[0, 3], DrivingNoise::Seeded(0)).is_err());
     }
 }

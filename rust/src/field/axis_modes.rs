@@ -1,7 +1,7 @@
 //! Eigendecomposition of one axis' correlation matrix Toeplitz(R(|i-j|)) (SPEC §1.1) with
 //! faer: the basis in which the row filters of SPEC §2 decouple.
 
-use crate::axis_model::AxisModel;
+use super::axis_model::AxisModel;
 use crate::error::{FieldError, Result};
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};

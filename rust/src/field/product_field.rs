@@ -2,11 +2,12 @@
 //! unit-variance stationary 1-D sequences s^{(k)} of the axis models. Same correlation
 //! function as the Gaussian field, non-Gaussian marginal, O(1) work per element.
 
-use crate::cascade::lines_into;
+use super::cascade::lines_into;
+use super::driving_noise::DrivingNoise;
+use super::field_model::FieldModel;
+use super::real::Real;
+use super::stationary_start::AxisRecursion;
 use crate::error::{FieldError, Result};
-use crate::field_model::FieldModel;
-use crate::noise::{Noise, Real};
-use crate::stationary_start::AxisRecursion;
 use rayon::prelude::*;
 
 /// Fills `out` (C order, `shape`) with a product field. With `given`, sequence k is driven by
@@ -48,11 +49,11 @@ pub fn product_field_into<T: Real>(
             let mut s = vec![0.0; len];
             let recursion = AxisRecursion::new(axis, 1.0)?;
             let noise = match given {
-                Some(g) => Noise::Given {
+                Some(g) => DrivingNoise::Given {
                     values: g[k],
                     first_line: k as u64,
                 },
-                None => Noise::Seeded(seed),
+                None => DrivingNoise::Seeded(seed),
             };
             lines_into(&mut s, len, &recursion, &noise, k as u64);
             Ok(s)

@@ -5,7 +5,7 @@
 //! Started this way, every line has covariance exactly Toeplitz(R) (it is the Cholesky
 //! factor of that matrix applied to white noise).
 
-use crate::axis_model::AxisModel;
+use super::axis_model::AxisModel;
 use crate::error::{FieldError, Result};
 use num_traits::Float;
 
