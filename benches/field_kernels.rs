@@ -1,9 +1,8 @@
 //! Criterion benchmarks of the random-field kernels (run with `cargo bench`).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::difference_gram::difference_gram;
 use kalmanfield::field::{sample_into, stream_frame_into, DrivingNoise, FieldModel};
-use kalmanfield::lag_products::lag_products;
+use kalmanfield::identification::{difference_gram, lag_products};
 
 fn one_thread<R>(f: impl FnOnce() -> R + Send) -> R
 where

@@ -5,12 +5,10 @@
 
 pub mod adaptive_denoise;
 pub mod branching;
-pub mod chi_squared;
 mod column_precision;
-pub mod difference_gram;
 pub mod error;
 pub mod field;
-pub mod lag_products;
+pub mod identification;
 pub mod linalg;
 pub mod local_moments;
 pub mod noise_level;
@@ -21,7 +19,6 @@ pub mod scratch;
 pub mod segment;
 mod simd;
 pub mod vector_row_filter;
-pub mod whitening;
 pub mod wiener_bound;
 
 #[cfg(feature = "python")]

@@ -2,8 +2,6 @@
 //! every numerical check is done by the plain-Rust kernels, whose errors become ValueError.
 
 use crate::adaptive_denoise::{adaptive_denoise, AdaptiveSettings};
-use crate::chi_squared::{chi_squared_quantile, chi_squared_sf};
-use crate::difference_gram::difference_gram as gram_kernel;
 use crate::error::FieldError;
 use crate::field::anisotropy;
 use crate::field::product_field_into;
@@ -11,11 +9,13 @@ use crate::field::AxisRecursion;
 use crate::field::FieldModel;
 use crate::field::{sample_into, stream_frame_into};
 use crate::field::{DrivingNoise, Real};
-use crate::lag_products::lag_products as lag_kernel;
+use crate::identification::difference_gram as gram_kernel;
+use crate::identification::lag_products as lag_kernel;
+use crate::identification::whiten_axis;
+use crate::identification::{chi_squared_quantile, chi_squared_sf};
 use crate::row_modes::ModeSet;
 use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
 use crate::vector_row_filter::VectorRowFilter;
-use crate::whitening::whiten_axis;
 use crate::wiener_bound::{wiener_bound as bound_kernel, wiener_error_map};
 use numpy::ndarray::Dimension;
 use numpy::{
@@ -711,7 +711,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_ORDER", crate::field::MAX_ORDER)?;
     m.add(
         "MAX_DIFFERENCE_ORDER",
-        crate::difference_gram::MAX_DIFFERENCE_ORDER,
+        crate::identification::MAX_DIFFERENCE_ORDER,
     )?;
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! Configuration of the branching tracker (the keywords of the Python class).
 
 use super::motion::MAX_MOTION_ORDER;
-use crate::chi_squared::chi_squared_quantile;
 use crate::error::{FieldError, Result};
+use crate::identification::chi_squared_quantile;
 
 /// Most index increments a sequence keeps (`memory`; 3–10 in use, SPEC §3.2), and most
 /// measurements that identify a sequence's future (`merge_depth`; 2–5 in use).
