@@ -4,9 +4,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use kalmanfield::field::{sample_into, DrivingNoise, FieldModel};
 use kalmanfield::linalg::SymmetricBand;
-use kalmanfield::row_modes::ModeSet;
-use kalmanfield::scalar_row_filter::ScalarRowFilter;
-use kalmanfield::vector_row_filter::VectorRowFilter;
+use kalmanfield::rowfilter::ModeSet;
+use kalmanfield::rowfilter::ScalarRowFilter;
+use kalmanfield::rowfilter::VectorRowFilter;
 
 fn one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::ThreadPoolBuilder::new()

@@ -15,11 +15,11 @@
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field::FieldModel;
 use crate::local_moments::local_moments;
-use crate::row_modes::ModeSet;
-use crate::scalar_row_filter::{model_ar_order, RowModels, ScalarRowFilter};
+use crate::rowfilter::row_axes;
+use crate::rowfilter::ModeSet;
+use crate::rowfilter::{model_ar_order, RowModels, ScalarRowFilter};
 use crate::scratch::Scratch;
 use crate::simd::{self, Arith, Kernel};
-use crate::vector_row_filter::row_axes;
 use rayon::prelude::*;
 
 /// Floor of the local signal variance σ², in units of the noise variance.

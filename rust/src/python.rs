@@ -13,10 +13,10 @@ use crate::identification::difference_gram as gram_kernel;
 use crate::identification::lag_products as lag_kernel;
 use crate::identification::whiten_axis;
 use crate::identification::{chi_squared_quantile, chi_squared_sf};
-use crate::row_modes::ModeSet;
-use crate::scalar_row_filter::{RowModels, ScalarRowFilter};
-use crate::vector_row_filter::VectorRowFilter;
-use crate::wiener_bound::{wiener_bound as bound_kernel, wiener_error_map};
+use crate::rowfilter::ModeSet;
+use crate::rowfilter::VectorRowFilter;
+use crate::rowfilter::{wiener_bound as bound_kernel, wiener_error_map};
+use crate::rowfilter::{RowModels, ScalarRowFilter};
 use numpy::ndarray::Dimension;
 use numpy::{
     Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray, PyReadonlyArray1,
@@ -592,17 +592,17 @@ fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f6
 }
 
 /// The default order m of the quasi-optimal filter's row model for multiplicities (n_y, n_x)
-/// (`scalar_row_filter::default_ar_order`).
+/// (`rowfilter::default_ar_order`).
 #[pyfunction]
 fn default_ar_order(n_y: usize, n_x: usize) -> usize {
-    crate::scalar_row_filter::default_ar_order(n_y, n_x)
+    crate::rowfilter::default_ar_order(n_y, n_x)
 }
 
 /// The row model of order n_x, 2 ≤ m ≤ 8, that `denoise` uses
-/// (`scalar_row_filter::model_ar_order`).
+/// (`rowfilter::model_ar_order`).
 #[pyfunction]
 fn model_ar_order(n_x: usize) -> usize {
-    crate::scalar_row_filter::model_ar_order(n_x)
+    crate::rowfilter::model_ar_order(n_x)
 }
 
 /// `RowModels` by name.

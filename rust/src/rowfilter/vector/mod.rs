@@ -18,21 +18,16 @@
 //! in the rows' own basis the prior of n_y = 4 rows has a condition ~3e17 at ρ = 0.999, and
 //! the smoother, whose gain needs P_e⁻¹, lay up to 1.19× above the Wiener bound there.
 
-use crate::column_precision::{ColumnPrecision, INFORMATION_RATIO};
 use crate::error::{try_zeros, FieldError, Result};
-use crate::field::AxisModel;
-use crate::field::AxisModes;
-use crate::field::FieldModel;
+use crate::field::{AxisModes, FieldModel};
+use crate::rowfilter::row_dynamics::{ModeCovariance, RowDynamics};
+use crate::rowfilter::{check_images, row_axes, StateMatrix, MAX_ROW_ORDER};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
-use nalgebra::{Matrix4, Vector4};
+use inverse_correlation::{InverseCorrelation, INFORMATION_RATIO};
 use rayon::prelude::*;
 
-/// Highest row multiplicity n_y of the row filters.
-pub const MAX_ROW_ORDER: usize = 4;
-
-/// Small row-state matrices (n_y ≤ 4; unused rows and columns are zero).
-pub type Small = Matrix4<f64>;
+mod inverse_correlation;
 
 /// The optimal filter for one model, noise variance and row width.
 #[derive(Debug, Clone)]
@@ -40,28 +35,10 @@ pub struct VectorRowFilter {
     /// The rows' dynamics in their whitened basis (module doc).
     dynamics: RowDynamics,
     /// R_y⁻¹, for the smoothed map of the modes with σ_θ²/v_j ≤ [`INFORMATION_RATIO`].
-    column: ColumnPrecision,
+    column: InverseCorrelation,
     noise_var: f64,
     modes: AxisModes,
     mode_var: Vec<f64>,
-}
-
-/// The row-state dynamics of one mode, in units of its variance (SPEC §2.2): in the rows'
-/// own basis (`new`), the companion transition of the row axis, the innovation β̃_y² e₀e₀ᵀ,
-/// the exact stationary prior R_y[:n,:n] of the first n rows and the identity readout (the
-/// quasi-optimal filter's splice check runs there); both row filters run it in the whitened
-/// basis (`whitened`).
-#[derive(Debug, Clone)]
-pub(crate) struct RowDynamics {
-    pub(crate) order: usize,
-    pub(crate) transition: Small,
-    /// Covariance one row's prediction adds.
-    pub(crate) innovation: Small,
-    pub(crate) prior: Small,
-    /// Row i: the observation vector of the image row that state component i holds.
-    pub(crate) readout: Small,
-    /// The readout's inverse T (v' = T v; the identity in the rows' own basis).
-    pub(crate) whitening: Small,
 }
 
 /// Per step t (row t+1) and mode j: the gain K (n) and the smoother gain J_t (n×n, linking
@@ -69,14 +46,7 @@ pub(crate) struct RowDynamics {
 struct Schedule {
     steps: usize,
     gains: Vec<[f64; MAX_ROW_ORDER]>,
-    smoothers: Vec<Small>,
-}
-
-/// Per-mode covariances of one step: prediction P_e, filtered P.
-#[derive(Clone, Copy)]
-pub(crate) struct ModeCovariance {
-    pub(crate) predicted: Small,
-    pub(crate) filtered: Small,
+    smoothers: Vec<StateMatrix>,
 }
 
 impl VectorRowFilter {
@@ -92,7 +62,7 @@ impl VectorRowFilter {
         let mode_var = modes.values.iter().map(|l| signal * l).collect();
         let dynamics = RowDynamics::new(y).whitened()?;
         Ok(Self {
-            column: ColumnPrecision::new(y, &dynamics.whitening),
+            column: InverseCorrelation::new(y, &dynamics.whitening),
             dynamics,
             noise_var,
             modes,
@@ -123,9 +93,14 @@ impl VectorRowFilter {
     }
 
     /// J_t = P_t F_{t+1}ᵀ P_e,t+1⁻¹ (identity inside the static start).
-    fn smoother(&self, t: usize, filtered: &Small, next_predicted: &Small) -> Small {
+    fn smoother(
+        &self,
+        t: usize,
+        filtered: &StateMatrix,
+        next_predicted: &StateMatrix,
+    ) -> StateMatrix {
         if t < self.dynamics.order {
-            return Small::identity();
+            return StateMatrix::identity();
         }
         let mut padded = *next_predicted;
         for i in self.dynamics.order..MAX_ROW_ORDER {
@@ -138,7 +113,7 @@ impl VectorRowFilter {
         let rhs = self.dynamics.transition * filtered;
         match padded.cholesky() {
             Some(ch) => ch.solve(&rhs).transpose(),
-            None => Small::zeros(),
+            None => StateMatrix::zeros(),
         }
     }
 
@@ -182,10 +157,10 @@ impl VectorRowFilter {
             }
         }
         // J_steps: the steady one once settled; otherwise it links the last row to nothing.
-        let last: Vec<Small> = if settled {
+        let last: Vec<StateMatrix> = if settled {
             smoothers[smoothers.len() - w..].to_vec()
         } else {
-            vec![Small::identity(); w]
+            vec![StateMatrix::identity(); w]
         };
         smoothers.extend(last);
         Schedule {
@@ -319,7 +294,7 @@ impl VectorRowFilter {
     /// Per-pixel error variance (row-major height × width) of the filter (`smooth` = false) or
     /// of the RTS smoother: diag of U P Uᵀ for the observed component of every row (the
     /// smoother's modes with σ_θ²/v_j ≤ [`INFORMATION_RATIO`] in information form, see
-    /// `column_precision`).
+    /// `inverse_correlation`).
     pub fn error_variance(&self, height: usize, smooth: bool, out: &mut [f64]) -> Result<()> {
         let w = self.width();
         if out.len() != height * w {
@@ -361,7 +336,7 @@ impl VectorRowFilter {
         }
         let height = column.len();
         // h_tᵀ P h_t: the variance of the row that row t's readout reads
-        let variance = |t: usize, p: &Small| {
+        let variance = |t: usize, p: &StateMatrix| {
             let h = self.dynamics.observation(t);
             h.dot(&(p * h))
         };
@@ -400,249 +375,9 @@ impl VectorRowFilter {
     }
 }
 
-impl RowDynamics {
-    /// The dynamics of the row axis `y`.
-    pub(crate) fn new(y: &AxisModel) -> Self {
-        let order = y.order();
-        let mut transition = Small::zeros();
-        for (i, a) in y.ar_coefficients().iter().enumerate() {
-            transition[(0, i)] = *a;
-        }
-        for i in 1..order {
-            transition[(i, i - 1)] = 1.0;
-        }
-        let mut prior = Small::zeros();
-        for i in 0..order {
-            for k in 0..order {
-                prior[(i, k)] = y.correlation(i.abs_diff(k) as f64);
-            }
-        }
-        let mut innovation = Small::zeros();
-        innovation[(0, 0)] = y.beta_tilde_sq();
-        Self {
-            order,
-            transition,
-            innovation,
-            prior,
-            readout: Small::identity(),
-            whitening: Small::identity(),
-        }
-    }
-
-    /// The same dynamics in the whitened basis v' = T v of the rows (T = L⁻¹, R_y[:n,:n] =
-    /// L Lᵀ): prior I, transition T S L, innovation β̃² (T e₀)(T e₀)ᵀ, readout L. Every
-    /// quantity is O(1) there, so the covariances stay positive semi-definite where the rows'
-    /// basis (R_y[:n,:n] of condition ~3e17 for n_y = 4 at ρ = 0.999) rounds them indefinite.
-    /// Error: R_y[:n,:n] does not factor in float64 (n_y = 4 at ρ = 0.9999).
-    pub(crate) fn whitened(&self) -> Result<Self> {
-        let n = self.order;
-        let mut prior = self.prior;
-        for i in n..MAX_ROW_ORDER {
-            prior[(i, i)] = 1.0;
-        }
-        let lower = prior.cholesky().map(|c| c.l()).ok_or_else(|| {
-            FieldError::InvalidParameter("the row correlation is not positive definite".into())
-        })?;
-        // a triangular solve, not a general 4×4 inverse: R_y[:n,:n] is ill-conditioned
-        // (condition ~5e9 for n = 4, ρ = 0.95)
-        let whitening = lower
-            .solve_lower_triangular(&Small::identity())
-            .ok_or_else(|| {
-                FieldError::InvalidParameter("the row correlation is singular".into())
-            })?;
-        let mut identity = Small::zeros();
-        identity.view_mut((0, 0), (n, n)).fill_with_identity();
-        let t0 = whitening.column(0).into_owned();
-        Ok(Self {
-            order: n,
-            transition: whitening * self.transition * lower,
-            innovation: (t0 * t0.transpose()) * self.innovation[(0, 0)],
-            prior: identity,
-            readout: lower,
-            whitening,
-        })
-    }
-
-    /// h_t: the observation vector of row t (1-based), row `observed(t)` of the readout.
-    pub(crate) fn observation(&self, t: usize) -> Vector4<f64> {
-        self.readout.row(self.observed(t)).transpose()
-    }
-
-    /// Index of the state component that row t (1-based) observes.
-    pub(crate) fn observed(&self, t: usize) -> usize {
-        self.order.saturating_sub(t)
-    }
-
-    /// One Riccati step of mode j in units of its variance v_j (so every mode is O(1)): row t
-    /// observes h_t = row `observed(t)` of the readout with noise `ratio` = σ_θ² / v_j.
-    pub(crate) fn riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
-        if self.order == 1 {
-            return self.scalar_riccati_step(t, previous[(0, 0)], ratio);
-        }
-        self.matrix_riccati_step(t, previous, ratio)
-    }
-
-    /// [`Self::riccati_step`] on the 4 × 4 matrices, for any state order.
-    fn matrix_riccati_step(&self, t: usize, previous: &Small, ratio: f64) -> ModeCovariance {
-        let predicted = if t == 1 {
-            self.prior
-        } else if t <= self.order {
-            *previous
-        } else {
-            let p = self.transition * previous * self.transition.transpose() + self.innovation;
-            (p + p.transpose()) * 0.5
-        };
-        let h = self.observation(t);
-        // P − c cᵀ / s (c = P h) keeps P exactly symmetric; the row-times-column form drifted
-        // apart by rounding and made P_e indefinite for ill-conditioned modes (ρ ≥ 0.99).
-        let c = predicted * h;
-        let filtered = predicted - (c * c.transpose()) / (h.dot(&c) + ratio);
-        ModeCovariance {
-            predicted,
-            filtered,
-        }
-    }
-
-    /// [`Self::riccati_step`] of a one-row state (n_y = 1) on the (0, 0) entries, the only
-    /// non-zero ones (a plan walks thousands of modes per row); the update as p r / (h² p + r),
-    /// which keeps its digits where p − (hp)²/(h² p + r) cancels (r ≪ p: σ_θ² ≲ 1e-16 σ_x²).
-    fn scalar_riccati_step(&self, t: usize, previous: f64, ratio: f64) -> ModeCovariance {
-        let (a, h) = (self.transition[(0, 0)], self.readout[(0, 0)]);
-        let p = if t == 1 {
-            self.prior[(0, 0)]
-        } else {
-            a * previous * a + self.innovation[(0, 0)]
-        };
-        let c = p * h;
-        let mut predicted = Small::zeros();
-        let mut filtered = Small::zeros();
-        predicted[(0, 0)] = p;
-        filtered[(0, 0)] = p * ratio / (h * c + ratio);
-        ModeCovariance {
-            predicted,
-            filtered,
-        }
-    }
-
-    /// (t, P_e,t per mode) of the modal Riccati for the mode variances `var` and noise
-    /// variance `noise_var` (SPEC §2.2 [P 3.29, 3.30]), rows t = 1, 2, ….
-    pub(crate) fn prediction_errors<'a>(
-        &'a self,
-        noise_var: f64,
-        var: &'a [f64],
-    ) -> impl Iterator<Item = (usize, Vec<Small>)> + 'a {
-        let ratios: Vec<f64> = var.iter().map(|v| noise_var / v).collect();
-        let start = ModeCovariance {
-            predicted: self.prior,
-            filtered: self.prior,
-        };
-        let mut current = vec![start; var.len()];
-        (1..).map(move |t| {
-            for (mode, ratio) in current.iter_mut().zip(&ratios) {
-                *mode = self.riccati_step(t, &mode.filtered, *ratio);
-            }
-            let modal = current.iter().zip(var).map(|(c, v)| c.predicted * *v);
-            (t, modal.collect())
-        })
-    }
-}
-
 fn max_change(old: &[[f64; MAX_ROW_ORDER]], new: &[[f64; MAX_ROW_ORDER]]) -> f64 {
     old.iter()
         .zip(new)
         .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
         .fold(0.0, f64::max)
-}
-
-/// Input and output hold `expected` values and every pixel is in range, [`pixel_in_range`]
-/// (the row filters need every observation).
-pub(crate) fn check_images(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
-    check_sizes(z, out, expected)?;
-    if !all_in_range(z) {
-        return Err(out_of_range_pixels());
-    }
-    Ok(())
-}
-
-/// The largest |pixel| the row filters take, 2¹⁰⁰⁰ ≈ 1.07e301: their sums of a few gains
-/// times pixels stay inside float64 (pixels near 1.8e308 turned the estimates to inf/NaN).
-pub const MAX_PIXEL: f64 = 1.0715086071862673e301;
-
-/// |v| ≤ [`MAX_PIXEL`]: false for NaN and ±inf too, at the cost of `is_finite`.
-#[inline(always)]
-pub(crate) fn pixel_in_range(v: f64) -> bool {
-    v.abs() <= MAX_PIXEL
-}
-
-/// The error for a NaN, infinite or out-of-range pixel.
-pub(crate) fn out_of_range_pixels() -> FieldError {
-    FieldError::NonFinite(
-        "the images hold NaN, infinite or out-of-range pixels (the row filters need every \
-         pixel, with |z − mean| ≤ 2^1000 ≈ 1e301)"
-            .into(),
-    )
-}
-
-/// Input and output hold `expected` values.
-pub(crate) fn check_sizes(z: &[f64], out: &[f64], expected: usize) -> Result<()> {
-    if z.len() != expected || out.len() != expected {
-        return Err(FieldError::Shape(format!(
-            "the images hold {} values, expected {expected}",
-            z.len()
-        )));
-    }
-    Ok(())
-}
-
-/// Whether every value is in range, [`pixel_in_range`] (a branch-free fold per block: vectorised).
-pub(crate) fn all_in_range(values: &[f64]) -> bool {
-    values
-        .chunks(4096)
-        .all(|block| block.iter().fold(true, |ok, v| ok & pixel_in_range(*v)))
-}
-
-/// The (row, column) axes of a 2-axis model with n_y ≤ 4.
-pub fn row_axes(model: &FieldModel) -> Result<(&AxisModel, &AxisModel)> {
-    if model.ndim() != 2 {
-        return Err(FieldError::InvalidParameter(format!(
-            "row filters need a 2-axis model (rows, columns), got {} axes",
-            model.ndim()
-        )));
-    }
-    let axes = model.axes();
-    if axes[0].order() > MAX_ROW_ORDER {
-        return Err(FieldError::InvalidParameter(format!(
-            "row filters support a row multiplicity up to {MAX_ROW_ORDER}, got {}",
-            axes[0].order()
-        )));
-    }
-    Ok((&axes[0], &axes[1]))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_one_row_riccati_step_is_the_matrix_one_and_keeps_its_digits_at_high_snr() {
-        let axis = AxisModel::new(0.95, 1).unwrap();
-        for dynamics in [
-            RowDynamics::new(&axis),
-            RowDynamics::new(&axis).whitened().unwrap(),
-        ] {
-            let (mut scalar, mut matrix) = (dynamics.prior, dynamics.prior);
-            for t in 1..=6 {
-                let s = dynamics.riccati_step(t, &scalar, 0.3);
-                let m = dynamics.matrix_riccati_step(t, &matrix, 0.3);
-                assert!((s.predicted - m.predicted).abs().max() < 1e-15);
-                assert!((s.filtered - m.filtered).abs().max() < 1e-15);
-                assert_eq!(s.filtered.abs().sum(), s.filtered[(0, 0)].abs());
-                (scalar, matrix) = (s.filtered, m.filtered);
-            }
-            // r ≪ p: the filtered variance is r (1 − r/p + …), where p − p²/(p + r) is 0
-            let step = dynamics.riccati_step(3, &scalar, 1e-30);
-            let want = 1e-30 / (1.0 + 1e-30 / step.predicted[(0, 0)]);
-            assert!((step.filtered[(0, 0)] / want - 1.0).abs() < 1e-14);
-        }
-    }
 }

@@ -22,11 +22,10 @@
 //!   band on every row of its plan (`ScalarRowFilter::splice_holds`); O(W'³) once instead
 //!   of O(W³), the exact band to that tolerance.
 
+use super::StateMatrix;
 use crate::error::Result;
-use crate::field::AxisModel;
-use crate::field::AxisModes;
+use crate::field::{AxisModel, AxisModes};
 use crate::simd::{self, Arith, Kernel};
-use crate::vector_row_filter::Small;
 use faer::Mat;
 use std::ops::Range;
 
@@ -107,11 +106,11 @@ impl Fourier {
     }
 
     /// The band's block C_d (the same at every column) for d = 0..=lags.
-    pub fn blocks(&self, modal: &[Small], lags: usize) -> Vec<Small> {
+    pub fn blocks(&self, modal: &[StateMatrix], lags: usize) -> Vec<StateMatrix> {
         let period = self.cosines.len();
         (0..=lags)
             .map(|d| {
-                let (mut block, mut k, stride) = (Small::zeros(), 0, d % period);
+                let (mut block, mut k, stride) = (StateMatrix::zeros(), 0, d % period);
                 for (m, wg) in modal.iter().zip(&self.weights) {
                     block += m * (wg * self.cosines[k]);
                     k += stride; // k = dg mod 2G
@@ -226,7 +225,7 @@ impl RowModes {
 
     /// Band blocks of Σ_j u_j u_jᵀ ⊗ M_j for the lags d = 0..=max_lag: block (ℓ, ℓ + d) is row
     /// ℓ of the d-th matrix ((W − d) × n², row-major n×n blocks); `modal` = M_j per mode.
-    pub fn band(&self, modal: &[Small], n: usize, max_lag: usize) -> Vec<Mat<f64>> {
+    pub fn band(&self, modal: &[StateMatrix], n: usize, max_lag: usize) -> Vec<Mat<f64>> {
         let (w, last) = (self.width(), max_lag.min(self.width() - 1));
         match self {
             Self::Exact(modes) => exact_band(modes, BandQuery::new(modal, n, last, 0..w)),
@@ -261,9 +260,9 @@ impl RowModes {
     /// None for the other sets.
     pub fn splice_defect(
         &self,
-        modal: &[Small],
+        modal: &[StateMatrix],
         finer: &Fourier,
-        finer_modal: &[Small],
+        finer_modal: &[StateMatrix],
         n: usize,
         max_lag: usize,
     ) -> Option<(f64, f64)> {
@@ -320,14 +319,14 @@ impl Kernel for ExactBand<'_> {
 /// ℓ in `rows` (row i of each lag's matrix is ℓ = rows.start + i).
 #[derive(Clone)]
 struct BandQuery<'a> {
-    modal: &'a [Small],
+    modal: &'a [StateMatrix],
     n: usize,
     lags: usize,
     rows: Range<usize>,
 }
 
 impl<'a> BandQuery<'a> {
-    fn new(modal: &'a [Small], n: usize, lags: usize, rows: Range<usize>) -> Self {
+    fn new(modal: &'a [StateMatrix], n: usize, lags: usize, rows: Range<usize>) -> Self {
         Self {
             modal,
             n,
@@ -433,8 +432,8 @@ mod tests {
             let RowModes::Exact(modes) = RowModes::exact(&axis, w).unwrap() else {
                 unreachable!()
             };
-            let modal: Vec<Small> = (0..w)
-                .map(|j| Small::from_fn(|a, b| ((j + 3 * a + 7 * b) as f64 * 0.37).sin()))
+            let modal: Vec<StateMatrix> = (0..w)
+                .map(|j| StateMatrix::from_fn(|a, b| ((j + 3 * a + 7 * b) as f64 * 0.37).sin()))
                 .collect();
             let want = |d: usize, l: usize, ab: usize| -> f64 {
                 (0..w)
@@ -477,7 +476,7 @@ mod tests {
         let (w, span, n, lags) = (700usize, 256usize, 2usize, 3usize);
         let shape = [[1.0, 0.3], [0.3, 0.5]];
         let covariance = |v: f64| {
-            Small::from_fn(|a, b| {
+            StateMatrix::from_fn(|a, b| {
                 if a < n && b < n {
                     v / (1.0 + v) * shape[a][b]
                 } else {
@@ -534,8 +533,8 @@ mod tests {
         for (rho, order) in [(0.5, 1), (0.9, 2), (0.95, 4), (0.99, 1)] {
             let axis = AxisModel::new(rho, order).unwrap();
             let modes = RowModes::toeplitz(&axis, 40);
-            let identity = vec![Small::identity(); modes.values().len()];
-            let scaled: Vec<Small> = identity
+            let identity = vec![StateMatrix::identity(); modes.values().len()];
+            let scaled: Vec<StateMatrix> = identity
                 .iter()
                 .zip(modes.values())
                 .map(|(m, v)| m * *v)
@@ -554,10 +553,10 @@ mod tests {
     fn exact_band_of_the_prior_is_the_correlation() {
         let axis = AxisModel::new(0.8, 2).unwrap();
         let modes = RowModes::exact(&axis, 30).unwrap();
-        let scaled: Vec<Small> = modes
+        let scaled: Vec<StateMatrix> = modes
             .values()
             .iter()
-            .map(|v| Small::identity() * *v)
+            .map(|v| StateMatrix::identity() * *v)
             .collect();
         let band = modes.band(&scaled, 1, 3);
         for (d, lag) in band.iter().enumerate() {

@@ -21,7 +21,7 @@
 use crate::error::Result;
 use crate::field::AxisModel;
 use crate::linalg::SymmetricBand;
-use crate::vector_row_filter::{Small, MAX_ROW_ORDER};
+use crate::rowfilter::{StateMatrix, MAX_ROW_ORDER};
 
 /// σ_θ²/v_j at or below which a mode's smoothed map comes from the information form: against
 /// an 80-digit posterior of 16 × 6 grids ((2,2), (3,3), (4,4), (4,1); ρ 0.5…0.99; σ_θ²/σ_x²
@@ -30,19 +30,19 @@ pub const INFORMATION_RATIO: f64 = 1e-4;
 
 /// R_y⁻¹ of the rows' axis, for any number of rows (module doc).
 #[derive(Debug, Clone)]
-pub(crate) struct ColumnPrecision {
+pub(crate) struct InverseCorrelation {
     order: usize,
     /// T = L⁻¹ of the first n rows' correlation R_y[:n,:n] = L Lᵀ.
-    whitening: Small,
+    whitening: StateMatrix,
     /// g = (−α_n, …, −α_1, 1): the innovation of row t from rows t − n..t.
     difference: [f64; MAX_ROW_ORDER + 1],
     innovation: f64,
 }
 
-impl ColumnPrecision {
+impl InverseCorrelation {
     /// The precision of the axis `y` whose first n rows' correlation R_y[:n,:n] = L Lᵀ has
     /// the inverse factor `whitening` T = L⁻¹ (`RowDynamics::whitened`'s).
-    pub(crate) fn new(y: &AxisModel, whitening: &Small) -> Self {
+    pub(crate) fn new(y: &AxisModel, whitening: &StateMatrix) -> Self {
         let order = y.order();
         let mut difference = [0.0; MAX_ROW_ORDER + 1];
         for (i, a) in y.ar_coefficients().iter().enumerate() {
@@ -100,13 +100,13 @@ impl ColumnPrecision {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vector_row_filter::RowDynamics;
+    use crate::rowfilter::row_dynamics::RowDynamics;
     use nalgebra::DMatrix;
 
-    fn precision(rho: f64, order: usize) -> ColumnPrecision {
+    fn precision(rho: f64, order: usize) -> InverseCorrelation {
         let y = AxisModel::new(rho, order).unwrap();
         let whitening = RowDynamics::new(&y).whitened().unwrap().whitening;
-        ColumnPrecision::new(&y, &whitening)
+        InverseCorrelation::new(&y, &whitening)
     }
 
     fn correlation(rho: f64, order: usize, height: usize) -> DMatrix<f64> {

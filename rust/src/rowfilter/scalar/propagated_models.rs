@@ -19,13 +19,11 @@
 //! that the plan's Λ_t. Cost: O(W n_y b²) for the inversion and O(W (m n_y)³) for the fits
 //! per row, and W n_y (b + 1) doubles per row kept for the RTS pass.
 
-use super::{ScalarRowFilter, JITTERS};
+use super::plan::{Lags, Plan};
+use super::row_model::JITTERS;
+use super::ScalarRowFilter;
 use crate::error::Result;
 use crate::linalg::SymmetricBand;
-
-/// A band of blocks, lag by lag: `lags[d]` holds the n × n blocks Cov(v_ℓ, v_{ℓ+d}) of
-/// ℓ = 0..W − d, row-major, one after the other (entry (ℓ, a, b) at ℓ n² + a n + b).
-pub(super) type Lags = Vec<Vec<f64>>;
 
 /// The largest joint order of a column and its past: (m + 1) n_y for m ≤ 8, n_y ≤ 4.
 const MAX_JOINT: usize = 36;
@@ -42,7 +40,7 @@ pub(super) type InverseVisitor<'a> = &'a mut dyn FnMut(usize, &SymmetricBand);
 /// beyond the rows they are at.
 pub(super) struct Propagation<'a> {
     filter: &'a ScalarRowFilter,
-    plan: &'a super::Plan,
+    plan: &'a Plan,
     weights: &'a [f64],
     innovation: &'a Lags,
     /// The band of S A_{t−1}⁻¹ Sᵀ + Q (reused storage).
@@ -57,7 +55,7 @@ pub(super) struct Propagation<'a> {
 impl<'a> Propagation<'a> {
     pub(super) fn new(
         filter: &'a ScalarRowFilter,
-        plan: &'a super::Plan,
+        plan: &'a Plan,
         weights: &'a [f64],
     ) -> Result<Self> {
         ScalarRowFilter::check_weights(weights)?;
@@ -110,26 +108,12 @@ impl<'a> Propagation<'a> {
     }
 }
 
-/// The band blocks of `ScalarRowFilter::band` (lag d: row ℓ, column a n + b) as [`Lags`].
-pub(super) fn lags_of(blocks: &[faer::Mat<f64>], n: usize) -> Lags {
-    blocks
-        .iter()
-        .map(|lag| {
-            let mut flat = Vec::with_capacity(lag.nrows() * n * n);
-            for ell in 0..lag.nrows() {
-                flat.extend((0..n * n).map(|ab| lag[(ell, ab)]));
-            }
-            flat
-        })
-        .collect()
-}
-
 impl ScalarRowFilter {
     /// The band of Q = σ² R_x ⊗ (I − S Sᵀ), the covariance the prediction of one row adds in
     /// the whitened basis (stationary state covariance σ² R_x ⊗ I, from the row's modes).
     #[cfg(test)]
     pub(super) fn innovation_band(&self) -> Lags {
-        lags_of(&self.innovation_blocks(), self.dynamics.order)
+        super::plan::lags_of(&self.innovation_blocks(), self.dynamics.order)
     }
 
     /// Hᵀ R⁻¹ H of row t (1-based) of an image with per-pixel 1/σ_θ² `weights`: the
@@ -161,7 +145,7 @@ impl ScalarRowFilter {
     /// it is the plan's ([`Propagation`]), kept for the RTS pass.
     pub(super) fn propagated_precisions(
         &self,
-        plan: &super::Plan,
+        plan: &Plan,
         weights: &[f64],
         height: usize,
     ) -> Result<Vec<Option<SymmetricBand>>> {
@@ -491,7 +475,7 @@ fn sum(a: &SymmetricBand, b: &SymmetricBand) -> SymmetricBand {
 mod tests {
     use super::*;
     use crate::field::FieldModel;
-    use crate::row_modes::ModeSet;
+    use crate::rowfilter::row_modes::ModeSet;
     use faer::Mat;
 
     /// A filter and the predicted band of its row `t` for pixel weights varying 30× about

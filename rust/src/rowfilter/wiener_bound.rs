@@ -6,8 +6,7 @@
 //! its trace / (H W) = mean f_ab and its diagonal (U_y∘U_y) F (U_x∘U_x)ᵀ.
 
 use crate::error::{FieldError, Result};
-use crate::field::AxisModes;
-use crate::field::FieldModel;
+use crate::field::{AxisModes, FieldModel};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, Par};
 

@@ -1,4 +1,4 @@
-//! The per-column steps of the scalar row filter's passes (`scalar_row_filter`, SPEC §2.3
+//! The per-column steps of the scalar row filter's passes (`rowfilter::scalar`, SPEC §2.3
 //! generalised) over its interleaved state: column ℓ's n components at ℓn..ℓn + n. Each step
 //! maps every column by a small matrix (the transition S, or Sᵀ), adds to it, and reads the
 //! image row out by h.
@@ -8,8 +8,8 @@
 //! columns, then column by column over the tail of the row. Every output is summed in the
 //! same order either way, so the bits do not depend on the block length.
 
+use crate::rowfilter::{pixel_in_range, StateMatrix};
 use crate::simd::{block, block_mut};
-use crate::vector_row_filter::{pixel_in_range, Small};
 use std::array::from_fn;
 use std::ops::Range;
 
@@ -119,7 +119,7 @@ struct ColumnMatrix<const N: usize> {
 }
 
 impl<const N: usize> ColumnMatrix<N> {
-    fn new(m: &Small) -> Self {
+    fn new(m: &StateMatrix) -> Self {
         Self {
             coef: from_fn(|b| from_fn(|k| m[(k % N, b)])),
         }
@@ -176,7 +176,7 @@ pub(crate) fn prefetch(row: &[f64]) {
 /// `PixelPrecision::checks`).
 #[inline(always)]
 pub(crate) fn predict<const N: usize, const K: usize, P: PixelPrecision>(
-    s: &Small,
+    s: &StateMatrix,
     state: &mut [f64],
     row: &[f64],
     gain_in: &mut [f64],
@@ -289,7 +289,7 @@ pub(crate) struct RtsRow<'a> {
 /// read, so the forward pass keeps no store of its states.
 #[inline(always)]
 pub(crate) fn smooth<const N: usize, const K: usize>(
-    s: &Small,
+    s: &StateMatrix,
     h0: f64,
     precision: impl PixelPrecision,
     row: RtsRow,
@@ -354,15 +354,15 @@ mod tests {
     use super::*;
 
     /// Per-column reference of the steps, one column at a time with plain loops.
-    fn column_apply(m: &Small, v: &[f64]) -> Vec<f64> {
+    fn column_apply(m: &StateMatrix, v: &[f64]) -> Vec<f64> {
         let n = v.len();
         (0..n)
             .map(|a| (0..n).map(|b| m[(a, b)] * v[b]).sum())
             .collect()
     }
 
-    fn small(n: usize) -> Small {
-        let mut m = Small::zeros();
+    fn small(n: usize) -> StateMatrix {
+        let mut m = StateMatrix::zeros();
         for a in 0..n {
             for b in 0..n {
                 m[(a, b)] = 0.3 + 0.17 * a as f64 - 0.11 * (b * b) as f64;
