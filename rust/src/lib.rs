@@ -3,16 +3,13 @@
 //!
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
-pub mod adaptive_denoise;
 pub mod branching;
+pub mod denoising;
 pub mod error;
 pub mod field;
 pub mod identification;
 pub mod linalg;
-pub mod local_moments;
-pub mod noise_level;
 pub mod rowfilter;
-pub mod scratch;
 pub mod segment;
 mod simd;
 

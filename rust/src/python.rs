@@ -1,7 +1,7 @@
 //! The thin binding layer: `kalmanfield._core`. Validation of Python-side types happens here;
 //! every numerical check is done by the plain-Rust kernels, whose errors become ValueError.
 
-use crate::adaptive_denoise::{adaptive_denoise, AdaptiveSettings};
+use crate::denoising::{adaptive_denoise, AdaptiveSettings};
 use crate::error::FieldError;
 use crate::field::anisotropy;
 use crate::field::product_field_into;
@@ -564,7 +564,7 @@ fn local_moments_into(
     let var = output(&mut var, &shape, "var")?;
     let values = contiguous(&z, "z")?;
     py.detach(|| {
-        crate::local_moments::local_moments(values, frames, height, width, radius, mean, var)
+        crate::denoising::local_moments(values, frames, height, width, radius, mean, var)
     })?;
     Ok(())
 }
@@ -588,7 +588,7 @@ fn axis_correlation_table<'py>(
 fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f64> {
     let (frames, height, width) = stack_dims(z.shape())?;
     let values = contiguous(&z, "z")?;
-    Ok(py.detach(|| crate::noise_level::haar_mad_noise_var(values, frames, height, width))?)
+    Ok(py.detach(|| crate::denoising::haar_mad_noise_var(values, frames, height, width))?)
 }
 
 /// The default order m of the quasi-optimal filter's row model for multiplicities (n_y, n_x)
@@ -701,8 +701,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model_ar_order, m)?)?;
     m.add_function(wrap_pyfunction!(axis_correlation_table, m)?)?;
     m.add_function(wrap_pyfunction!(adaptive_denoise_into, m)?)?;
-    m.add("SIGNAL_FLOOR", crate::adaptive_denoise::SIGNAL_FLOOR)?;
-    m.add("NOMINAL_SAMPLE", crate::adaptive_denoise::NOMINAL_SAMPLE)?;
+    m.add("SIGNAL_FLOOR", crate::denoising::SIGNAL_FLOOR)?;
+    m.add("NOMINAL_SAMPLE", crate::denoising::NOMINAL_SAMPLE)?;
     m.add_function(wrap_pyfunction!(difference_gram, m)?)?;
     m.add_function(wrap_pyfunction!(lag_products, m)?)?;
     m.add_function(wrap_pyfunction!(whiten_axis_into, m)?)?;

@@ -12,13 +12,13 @@
 //! from the neighbours), σ kept; where a box holds no observed pixel, it is widened until it
 //! holds one.
 
+use super::local_moments::local_moments;
+use super::scratch::Scratch;
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field::FieldModel;
-use crate::local_moments::local_moments;
 use crate::rowfilter::row_axes;
 use crate::rowfilter::ModeSet;
 use crate::rowfilter::{model_ar_order, RowModels, ScalarRowFilter};
-use crate::scratch::Scratch;
 use crate::simd::{self, Arith, Kernel};
 use rayon::prelude::*;
 
