@@ -3,15 +3,14 @@
 //!
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
-pub mod branching;
 pub mod denoising;
 pub mod error;
 pub mod field;
 pub mod identification;
 pub mod linalg;
 pub mod rowfilter;
-pub mod segment;
 mod simd;
+pub mod tracking;
 
 #[cfg(feature = "python")]
 mod python;

@@ -1,6 +1,6 @@
 //! Binding of the branching tracker (SPEC §3.1–3.3): `kalmanfield._core.BranchingTracker`.
 
-use crate::branching::{BranchingTracker, Selection, TrackerConfig};
+use crate::tracking::{BranchingTracker, Selection, TrackerConfig, MAX_MOTION_ORDER};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -202,9 +202,6 @@ impl PyBranchingTracker {
 /// Adds the tracker class to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyBranchingTracker>()?;
-    m.add(
-        "MAX_MOTION_ORDER",
-        crate::branching::motion::MAX_MOTION_ORDER,
-    )?;
+    m.add("MAX_MOTION_ORDER", MAX_MOTION_ORDER)?;
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment` and `segment_stack`.
 
-use crate::segment::{
+use crate::tracking::{
     segment as segment_kernel, segment_stack as stack_kernel, Pixel, Segment, Segmentation,
     StackSegmentation,
 };

@@ -8,19 +8,22 @@ use super::tracker::{splitmix64, BranchingTracker};
 use std::cmp::Ordering;
 use std::collections::HashMap;
 
-/// Applies rules 1–5 to the children of one frame.
-pub fn prune(tr: &mut BranchingTracker, c: Hypotheses) -> Hypotheses {
-    let w = tr.w;
-    let idx = time_out(tr, &c);
-    let idx = merge_within_trees(&c, w, idx);
-    let idx = cap_per_tree(tr, &c, idx);
-    let idx = cross_tree_duplicates(tr, &c, idx);
-    let idx = global_cap(tr, &c, idx);
-    let mut c = c;
-    if idx.len() < c.len() {
-        c.retain_rows(&idx, w);
+impl BranchingTracker {
+    /// Applies rules 1–5 to the children of one frame.
+    pub(super) fn prune(&mut self, c: Hypotheses) -> Hypotheses {
+        let tr = self;
+        let w = tr.w;
+        let idx = time_out(tr, &c);
+        let idx = merge_within_trees(&c, w, idx);
+        let idx = cap_per_tree(tr, &c, idx);
+        let idx = cross_tree_duplicates(tr, &c, idx);
+        let idx = global_cap(tr, &c, idx);
+        let mut c = c;
+        if idx.len() < c.len() {
+            c.retain_rows(&idx, w);
+        }
+        c
     }
-    c
 }
 
 /// Decreasing score, then earlier row first.

@@ -6,7 +6,6 @@ use super::gating::{for_each_ball, keep_nearest, Candidate};
 use super::hypotheses::{Hypotheses, Widths, MISS, NONE};
 use super::motion::{motion_matrices, predict, update};
 use super::nodes::{remapped, Nodes};
-use super::pruning::prune;
 use crate::error::{FieldError, Result};
 use statrs::function::gamma::gamma;
 use std::collections::BTreeMap;
@@ -243,7 +242,7 @@ impl BranchingTracker {
             let (children, ended) = self.branch(&h, &input, &prediction);
             stats.children = children.len();
             self.terminate(&h, &ended);
-            let children = prune(self, children);
+            let children = self.prune(children);
             self.commit(children)
         };
         self.close_dead_trees(&h);

@@ -5,18 +5,22 @@
 //! The module docstring of the reference explains the rules (gate = χ² index test, least-squares
 //! start, score, the five pruning rules, the final greedy choice).
 
-pub mod codec;
-pub mod config;
+mod codec;
+mod config;
 mod gating;
-pub mod hypotheses;
-pub mod motion;
-pub mod nodes;
-pub mod pruning;
-pub mod selection;
-pub mod tracker;
+mod hypotheses;
+mod motion;
+mod nodes;
+mod pruning;
+mod selection;
+mod tracker;
 
 #[cfg(test)]
 mod tests;
 
 pub use config::{Selection, TrackerConfig};
-pub use tracker::BranchingTracker;
+pub use hypotheses::Hypotheses;
+pub use motion::MAX_MOTION_ORDER;
+pub use nodes::Nodes;
+pub use selection::{ChosenTrack, TrackTable};
+pub use tracker::{splitmix64, BranchingTracker, FrameStats, OnlineAnswer};
