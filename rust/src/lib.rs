@@ -4,7 +4,7 @@
 //! Formulas are those of `SPEC.md` (cited per item as "SPEC §x.y").
 
 pub mod denoising;
-pub mod error;
+mod error;
 pub mod field;
 pub mod identification;
 pub mod linalg;

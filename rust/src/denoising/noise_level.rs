@@ -8,7 +8,7 @@ use crate::error::{FieldError, Result};
 
 /// The normal distribution's upper quartile Φ⁻¹(3/4) (Donoho and Johnstone round it to
 /// 0.6745, a bias of 3e-5 in σ̂²).
-pub const NORMAL_QUARTILE: f64 = 0.674_489_750_196_081_7;
+pub(crate) const NORMAL_QUARTILE: f64 = 0.674_489_750_196_081_7;
 
 /// σ̂_θ² from the disjoint 2×2 blocks of `frames` images (row-major height × width), pooled
 /// over the frames (an odd last row or column is left out). Blocks with a NaN (missing) or

@@ -14,7 +14,7 @@ use std::ops::{Deref, DerefMut};
 
 /// Most bytes of spare buffers one thread keeps between calls (256 MiB: four 2048² float64
 /// frames, the adaptive denoiser's need).
-pub const RETAINED_BYTES: usize = 256 << 20;
+pub(crate) const RETAINED_BYTES: usize = 256 << 20;
 
 const RETAINED_VALUES: usize = RETAINED_BYTES / std::mem::size_of::<f64>();
 
@@ -24,7 +24,7 @@ thread_local! {
 
 /// A zero-filled `f64` buffer taken from (and given back to) the thread's spare list.
 #[derive(Debug)]
-pub struct Scratch(Vec<f64>);
+pub(crate) struct Scratch(Vec<f64>);
 
 impl Scratch {
     /// `len` zeros: the smallest spare of at least `len` values, or a fresh allocation.

@@ -51,7 +51,7 @@ pub fn anisotropy(model: &FieldModel) -> f64 {
 }
 
 /// τ(u) = ∫_0^∞ Π_k R_k(t u_k) dt in closed form.
-pub fn integral_along(model: &FieldModel, u: &[f64]) -> f64 {
+pub(crate) fn integral_along(model: &FieldModel, u: &[f64]) -> f64 {
     let mut lambda = 0.0;
     let mut q = vec![1.0];
     for (axis, &uk) in model.axes().iter().zip(u) {

@@ -15,7 +15,7 @@ const LANES_PER_BLOCK: usize = 256;
 
 /// An array seen as (outer, len, inner): lines of length `len` along the chosen axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AxisLines {
+pub(crate) struct AxisLines {
     outer: usize,
     len: usize,
     inner: usize,
@@ -24,7 +24,7 @@ pub struct AxisLines {
 /// A set of lanes (lines) visited together: element `i` of lane `j` is at
 /// `base + i * elem_step + j * lane_step`.
 #[derive(Debug, Clone, Copy)]
-pub struct LaneBlock {
+pub(crate) struct LaneBlock {
     pub base: usize,
     pub lanes: usize,
     pub lane_step: usize,

@@ -303,7 +303,12 @@ fn recurse_in_strips<T: Real>(out: &mut [T], len: usize, slab: usize, rec: &Axis
 
 /// cur ← g·cur + Σ_j a_j prev_j at `position` along the axis (prev[0] = the slice before).
 /// Terms are added oldest first, as in [`filter_line`].
-pub fn slab_step<T: Real>(rec: &AxisRecursion<T>, position: usize, cur: &mut [T], prev: &[&[T]]) {
+pub(crate) fn slab_step<T: Real>(
+    rec: &AxisRecursion<T>,
+    position: usize,
+    cur: &mut [T],
+    prev: &[&[T]],
+) {
     let (a, g) = rec.at(position);
     let len = cur.len();
     match *a {
@@ -336,7 +341,7 @@ pub fn slab_step<T: Real>(rec: &AxisRecursion<T>, position: usize, cur: &mut [T]
 /// grid: their noise, then the recursion of their axis run over them in place, two lines at a
 /// time so that their independent dependency chains overlap. (Drawing a line's normals in a
 /// tight loop before the recursion measured faster than drawing them inside it.)
-pub fn lines_into<T: Real>(
+pub(crate) fn lines_into<T: Real>(
     block: &mut [T],
     width: usize,
     rec: &AxisRecursion<T>,

@@ -49,7 +49,7 @@ fn splitmix64(mut z: u64) -> u64 {
 }
 
 /// The generator of line `line` under `seed`.
-pub fn line_rng(seed: u64, line: u64) -> Xoshiro256PlusPlus {
+pub(crate) fn line_rng(seed: u64, line: u64) -> Xoshiro256PlusPlus {
     Xoshiro256PlusPlus::seed_from_u64(splitmix64(splitmix64(seed) ^ line))
 }
 

@@ -20,7 +20,7 @@ pub use axis_model::{correlation_table, AxisModel, MAX_ORDER};
 pub use axis_modes::AxisModes;
 pub use cascade::{sample_into, stream_frame_into};
 pub use driving_noise::DrivingNoise;
-pub use field_model::FieldModel;
+pub use field_model::{FieldModel, MAX_SIGMA, MIN_SIGMA};
 pub use product_field::product_field_into;
 pub use real::Real;
 pub use stationary_start::AxisRecursion;

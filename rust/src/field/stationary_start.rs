@@ -75,9 +75,9 @@ impl<T: Float> AxisRecursion<T> {
 }
 
 /// Largest relative change of the start's prediction errors under 4-ulp changes of R.
-pub const MAX_START_SENSITIVITY: f64 = 0.1;
+pub(crate) const MAX_START_SENSITIVITY: f64 = 0.1;
 /// ε_T / β̃ at most 1e-5: the steady recursion's rounding errors stay below ~1e-3 σ.
-pub const MAX_ROUNDING_GAIN: f64 = 1e-5;
+pub(crate) const MAX_ROUNDING_GAIN: f64 = 1e-5;
 
 /// Refuses a start whose prediction errors of orders 0..n − 1 are sensitive to the rounding
 /// of R (its Toeplitz section is singular to float64): R(k)·(1 ± 4ε) in three sign patterns.

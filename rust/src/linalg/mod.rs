@@ -3,5 +3,5 @@
 
 mod banded;
 
-pub(crate) use banded::LDL_LANES;
-pub use banded::{BandCholesky, BandLdlBatch, SymmetricBand};
+pub use banded::{BandCholesky, SymmetricBand};
+pub(crate) use banded::{BandLdlBatch, LDL_LANES};

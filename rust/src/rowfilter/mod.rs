@@ -25,7 +25,7 @@ pub const MAX_ROW_ORDER: usize = 4;
 
 /// A matrix of the row state (n_y × n_y, n_y ≤ 4, held in 4 × 4: unused rows and columns
 /// are zero): transitions, covariances, gains.
-pub type StateMatrix = Matrix4<f64>;
+pub(crate) type StateMatrix = Matrix4<f64>;
 
 /// Input and output hold `expected` values and every pixel is in range, [`pixel_in_range`]
 /// (the row filters need every observation).
@@ -75,7 +75,7 @@ pub(crate) fn all_in_range(values: &[f64]) -> bool {
 }
 
 /// The (row, column) axes of a 2-axis model with n_y ≤ 4.
-pub fn row_axes(model: &FieldModel) -> Result<(&AxisModel, &AxisModel)> {
+pub(crate) fn row_axes(model: &FieldModel) -> Result<(&AxisModel, &AxisModel)> {
     if model.ndim() != 2 {
         return Err(FieldError::InvalidParameter(format!(
             "row filters need a 2-axis model (rows, columns), got {} axes",

@@ -36,7 +36,7 @@ const MAX_INTERVALS: usize = 1 << 16;
 /// the exact band 3W'/8 from the end of the ends' row and the Toeplitz band, above the
 /// bands' rounding floor (about the exact band's own rounding at W' = 1024–2048, which sums
 /// over W' modes).
-pub const SPLICE_TOLERANCE: f64 = 1e-11;
+pub(crate) const SPLICE_TOLERANCE: f64 = 1e-11;
 /// Smallest row of the exact ends, W'.
 const MIN_SPAN: usize = 256;
 
@@ -53,7 +53,7 @@ pub enum ModeSet {
 
 /// The Fourier modes of the infinite row, on the trapezoid nodes ω_g = πg/G.
 #[derive(Debug, Clone)]
-pub struct Fourier {
+pub(crate) struct Fourier {
     /// Normalised spectral density λ_g = S_x(ω_g) (trapezoid mean 1).
     values: Vec<f64>,
     /// Trapezoid weights 1/G (1/(2G) at both ends).
@@ -126,7 +126,7 @@ impl Fourier {
 
 /// A mode set of one row width.
 #[derive(Debug, Clone)]
-pub enum RowModes {
+pub(crate) enum RowModes {
     /// Eigenbasis of Toeplitz(R_x) on the row.
     Exact(AxisModes),
     /// Fourier modes of the infinite row.

@@ -12,14 +12,14 @@ use crate::error::{FieldError, Result};
 use crate::simd::{self, Arith, Kernel};
 
 /// Matrices factored side by side.
-pub const LANES: usize = 8;
+pub(crate) const LANES: usize = 8;
 
 /// One value per lane.
-pub type Lanes = [f64; LANES];
+pub(crate) type Lanes = [f64; LANES];
 
 /// A_j = L_j D_j L_jᵀ, L_j unit lower banded, for the LANES lanes j, stored lane-interleaved.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BandLdlBatch {
+pub(crate) struct BandLdlBatch {
     size: usize,
     bandwidth: usize,
     /// [i·b + m] = L(i, i − b + m); zero outside the matrix, including `bandwidth` padding
@@ -38,11 +38,6 @@ impl BandLdlBatch {
             lower: vec![[0.0; LANES]; (size + bandwidth) * bandwidth],
             inverse_pivot: vec![[0.0; LANES]; size],
         }
-    }
-
-    /// Matrix order.
-    pub fn size(&self) -> usize {
-        self.size
     }
 
     /// Factors A_j = bases[j] + blockdiag(blocks[·][j]) into lane j: `blocks` holds the

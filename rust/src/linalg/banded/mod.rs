@@ -19,6 +19,5 @@ mod steady_blocks;
 mod substitution;
 
 pub use band::SymmetricBand;
-pub use band_ldl::BandLdlBatch;
-pub(crate) use band_ldl::LANES as LDL_LANES;
+pub(crate) use band_ldl::{BandLdlBatch, LANES as LDL_LANES};
 pub use cholesky::BandCholesky;

@@ -6,18 +6,18 @@ use crate::identification::chi_squared_quantile;
 
 /// Most index increments a sequence keeps (`memory`; 3–10 in use, SPEC §3.2), and most
 /// measurements that identify a sequence's future (`merge_depth`; 2–5 in use).
-pub const MAX_MEMORY: usize = 256;
+pub(crate) const MAX_MEMORY: usize = 256;
 
 /// Largest noise std, speed and default time step accepted: the filters square them (and
 /// the start's velocity variance is (10·max_speed)²), so 1e100 keeps every covariance and
 /// the saved state finite with room to spare.
-pub const MAX_SCALE: f64 = 1e100;
+pub(crate) const MAX_SCALE: f64 = 1e100;
 
 /// Largest |time| accepted (the measurements' bound, `MAX_MEASUREMENT` of the Python class).
-pub const MAX_TIME: f64 = 1e150;
+pub(crate) const MAX_TIME: f64 = 1e150;
 
 /// Default `max_children`: twice the default `max_per_tree`.
-pub const DEFAULT_MAX_CHILDREN: usize = 16;
+pub(crate) const DEFAULT_MAX_CHILDREN: usize = 16;
 
 /// Ranking of the final answer (SPEC §3.3 step 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -2,7 +2,7 @@
 
 /// Row widths of the strided fields.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Widths {
+pub(crate) struct Widths {
     /// Σ_q d_q: the flattened state of all parameters.
     pub state: usize,
     /// Σ_q d_q²: the flattened per-parameter covariances.
@@ -16,9 +16,9 @@ pub struct Widths {
 }
 
 /// "No entry yet" in `recent`.
-pub const NONE: i64 = -2;
+pub(crate) const NONE: i64 = -2;
 /// A missed (coasted) frame.
-pub const MISS: i64 = -1;
+pub(crate) const MISS: i64 = -1;
 
 /// Live sequences.
 #[derive(Debug, Clone, Default)]
@@ -61,7 +61,7 @@ impl Hypotheses {
     }
 
     /// Empty, with room for `n` rows.
-    pub fn with_capacity(n: usize, w: Widths) -> Hypotheses {
+    pub(crate) fn with_capacity(n: usize, w: Widths) -> Hypotheses {
         Hypotheses {
             node: Vec::with_capacity(n),
             tree: Vec::with_capacity(n),
@@ -85,7 +85,7 @@ impl Hypotheses {
     }
 
     /// Appends a copy of row `i` of `other`.
-    pub fn push_row(&mut self, other: &Hypotheses, i: usize, w: Widths) {
+    pub(crate) fn push_row(&mut self, other: &Hypotheses, i: usize, w: Widths) {
         self.node.push(other.node[i]);
         self.tree.push(other.tree[i]);
         extend_row(&mut self.x, &other.x, i, w.state);
@@ -107,7 +107,7 @@ impl Hypotheses {
     }
 
     /// Keeps only the rows `idx` (strictly increasing), in place.
-    pub fn retain_rows(&mut self, idx: &[usize], w: Widths) {
+    pub(crate) fn retain_rows(&mut self, idx: &[usize], w: Widths) {
         keep_rows(&mut self.node, idx, 1);
         keep_rows(&mut self.tree, idx, 1);
         keep_rows(&mut self.x, idx, w.state);
@@ -129,7 +129,7 @@ impl Hypotheses {
     }
 
     /// Row `i` of `recent`.
-    pub fn recent_row(&self, i: usize, w: Widths) -> &[i64] {
+    pub(crate) fn recent_row(&self, i: usize, w: Widths) -> &[i64] {
         &self.recent[i * w.depth..(i + 1) * w.depth]
     }
 }

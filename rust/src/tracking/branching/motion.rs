@@ -8,7 +8,7 @@ pub const MAX_MOTION_ORDER: usize = 4;
 /// step τ: F[i][j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ with g_i = τ^(d−i)/(d−i)!, d = ν + 1
 /// (a white (ν+1)-th derivative held over the step; ν = 1 is the white-noise-acceleration
 /// model).
-pub fn motion_matrices(order: usize, tau: f64, process_std: f64) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn motion_matrices(order: usize, tau: f64, process_std: f64) -> (Vec<f64>, Vec<f64>) {
     let d = order + 1;
     let mut f = vec![0.0; d * d];
     for i in 0..d {
@@ -34,7 +34,7 @@ fn factorial(n: usize) -> f64 {
 }
 
 /// Prediction: x⁻ = F x, P⁻ = F P Fᵀ + Q (all d × d row-major).
-pub fn predict(f: &[f64], q: &[f64], x: &[f64], p: &[f64], xp: &mut [f64], pp: &mut [f64]) {
+pub(crate) fn predict(f: &[f64], q: &[f64], x: &[f64], p: &[f64], xp: &mut [f64], pp: &mut [f64]) {
     let d = x.len();
     for i in 0..d {
         xp[i] = (0..d).fold(0.0, |acc, j| acc + f[i * d + j] * x[j]);
@@ -55,7 +55,7 @@ pub fn predict(f: &[f64], q: &[f64], x: &[f64], p: &[f64], xp: &mut [f64], pp: &
 
 /// Update with the scalar measurement of the first state component: innovation v,
 /// innovation variance s = P⁻[0][0] + R, gain K = P⁻[:,0]/s, x = x⁻ + K v, P = P⁻ − K Kᵀ s.
-pub fn update(xp: &[f64], pp: &[f64], s: f64, v: f64, x: &mut [f64], p: &mut [f64]) {
+pub(crate) fn update(xp: &[f64], pp: &[f64], s: f64, v: f64, x: &mut [f64], p: &mut [f64]) {
     let d = xp.len();
     let mut gain = [0.0; MAX_MOTION_ORDER + 1];
     for i in 0..d {

@@ -141,7 +141,7 @@ impl Nodes {
 }
 
 /// Maps an id through `remap` (−1 stays −1).
-pub fn remapped(remap: &[i64], id: i64) -> i64 {
+pub(crate) fn remapped(remap: &[i64], id: i64) -> i64 {
     if id >= 0 {
         remap[id as usize]
     } else {
