@@ -1,4 +1,4 @@
-//! The adaptive denoiser (README "denoise"; SPEC §2.3 generalised, with per-pixel noise):
+//! The adaptive denoiser (`kalmanfield.denoise`; SPEC §2.3 generalised, with per-pixel noise):
 //! z = x + θ with x = μ(s) + σ(s) ξ(s), where μ and σ² + σ_θ² are the mean and variance of
 //! the (2r+1)² box around each pixel (`local_moments`; σ² floored at SIGNAL_FLOOR σ_θ²) and
 //! ξ a unit-variance AR field of the given row model. The normalised residual

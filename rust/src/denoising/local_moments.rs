@@ -1,6 +1,6 @@
 //! Local mean and variance of an image over a (2r+1)² box: the locally adapted mean and
-//! variance of the adaptive `denoise` (SPEC §2, README "denoise"). Near the borders the box
-//! is cut to the image (the mean of the pixels it covers). Running sums along the rows then
+//! variance of the adaptive `denoise` (SPEC §2). Near the borders the box is cut to the
+//! image (the mean of the pixels it covers). Running sums along the rows then
 //! the columns: O(1) per pixel whatever r. The sums are taken about the image's mean so that
 //! E[z²] − E[z]² does not cancel for images with a large offset. NaN pixels are missing: the
 //! moments are those of the box's other pixels, and NaN where the box holds none.

@@ -1,4 +1,4 @@
-//! The noise level of an image (README "denoise"): Donoho's robust estimate of the variance
+//! The noise level of an image (the observation noise θ of `denoise`): Donoho's robust estimate of the variance
 //! σ_θ² of white noise from the finest diagonal Haar details. The detail
 //! d = (z₀₀ − z₀₁ − z₁₀ + z₁₁)/2 of a 2×2 block is ~0 on a smooth image and N(0, σ_θ²) on
 //! white noise, so σ̂_θ = median|d| / Φ⁻¹(3/4) (the normal's quartile) ignores the few blocks

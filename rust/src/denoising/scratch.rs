@@ -3,10 +3,9 @@
 //! A kernel that allocates a few frame-sized temporaries per call pays a page fault per
 //! 4 KiB page on every call once glibc hands the freed memory back to the system (the main
 //! thread's heap is trimmed when more than twice the mmap threshold is free at its top;
-//! blocks over 32 MiB are always mapped afresh). Measured with `denoise` (four temporaries)
-//! on the calling thread: ~880 faults per 303×384 call (~1.5 ms of ~6 ms) and ~33,000 per
-//! 2048² call. A [`Scratch`] buffer goes back to its thread's spare list when dropped, and
-//! the next request of that thread reuses it; each thread keeps at most
+//! blocks over 32 MiB are always mapped afresh): a quarter of a small `denoise` call's time.
+//! A [`Scratch`] buffer goes back to its thread's spare list when dropped, and the next
+//! request of that thread reuses it; each thread keeps at most
 //! [`RETAINED_BYTES`] of spares (the largest ones), freed when the thread ends.
 
 use std::cell::RefCell;

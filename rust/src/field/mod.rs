@@ -23,4 +23,4 @@ pub use driving_noise::DrivingNoise;
 pub use field_model::{FieldModel, MAX_SIGMA, MIN_SIGMA};
 pub use product_field::product_field_into;
 pub use real::Real;
-pub use stationary_start::AxisRecursion;
+pub use stationary_start::{AxisRecursion, MAX_ROUNDING_GAIN, MAX_START_SENSITIVITY};

@@ -26,9 +26,9 @@ impl<T: Float> AxisRecursion<T> {
     /// successive elements correlate too closely for float64 (e.g. ρ = 0.99 with
     /// multiplicity 8), and its square root would be NaN.
     ///
-    /// Also refused, measured against 60-digit Levinson recursions and long-double runs
-    /// (2026-11-29): a start whose prediction errors change by more than
-    /// [`MAX_START_SENSITIVITY`] (relative) when R moves by 4 ulps (they are then wrong by
+    /// Also refused, measured against 60-digit Levinson recursions and long-double runs: a
+    /// start whose prediction errors change by more than [`MAX_START_SENSITIVITY`]
+    /// (relative) when R moves by 4 ulps (they are then wrong by
     /// ~1 % to ×1e4: the exact start's R[:n,:n] is singular to float64, e.g. n = 4 at
     /// ρ ≥ 0.995), and a steady recursion whose rounding errors, amplified ~(10–100) × 1/β̃,
     /// exceed ~1e-3 σ in the precision T (refused when ε_T / β̃ > [`MAX_ROUNDING_GAIN`]).
@@ -75,9 +75,9 @@ impl<T: Float> AxisRecursion<T> {
 }
 
 /// Largest relative change of the start's prediction errors under 4-ulp changes of R.
-pub(crate) const MAX_START_SENSITIVITY: f64 = 0.1;
+pub const MAX_START_SENSITIVITY: f64 = 0.1;
 /// ε_T / β̃ at most 1e-5: the steady recursion's rounding errors stay below ~1e-3 σ.
-pub(crate) const MAX_ROUNDING_GAIN: f64 = 1e-5;
+pub const MAX_ROUNDING_GAIN: f64 = 1e-5;
 
 /// Refuses a start whose prediction errors of orders 0..n − 1 are sensitive to the rounding
 /// of R (its Toeplitz section is singular to float64): R(k)·(1 ± 4ε) in three sign patterns.

@@ -49,7 +49,7 @@ fn haar_noise_var(py: Python<'_>, z: PyReadonlyArrayDyn<'_, f64>) -> PyResult<f6
     Ok(py.detach(|| haar_mad_noise_var(values, frames, height, width))?)
 }
 
-/// The adaptive denoiser (README "denoise") of an image (H, W) or a stack (F, H, W) into
+/// The adaptive denoiser (`kalmanfield.denoise`) of an image (H, W) or a stack (F, H, W) into
 /// `out` (same shape), frames in parallel.
 #[pyfunction]
 #[pyo3(signature = (z, noise_var, model, radius, smooth, out, threads=None, row_models="nominal"))]

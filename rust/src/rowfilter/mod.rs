@@ -17,7 +17,7 @@ mod wiener_bound;
 
 pub use row_modes::ModeSet;
 pub use scalar::{default_ar_order, model_ar_order, RowModels, ScalarRowFilter, MAX_AR_ORDER};
-pub use vector::VectorRowFilter;
+pub use vector::{VectorRowFilter, INFORMATION_RATIO};
 pub use wiener_bound::{wiener_bound, wiener_error_map};
 
 /// Highest row multiplicity n_y of the row filters.

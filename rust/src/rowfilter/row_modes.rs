@@ -12,7 +12,7 @@
 //!   trapezoid rule on G + 1 frequencies (exponentially accurate for a periodic analytic
 //!   integrand; G ≥ 24/(1 − ρ_x)), O(G) per row and no O(W³) step. Exact in the interior of
 //!   wide rows; near the ends of a row the true P_e is larger (fewer neighbours), which this
-//!   set ignores (the loss is measured in the README).
+//!   set ignores (the loss is measured in the benchmarks).
 //! - `Ends`: both, spliced. The ends of a row of W points see the row's far end only through
 //!   terms that decay with the distance (measured: faster than R_x itself), so the first
 //!   and last W'/2 columns take the band of the exact eigenbasis of a row of W' < W points

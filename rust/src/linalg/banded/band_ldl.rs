@@ -1,5 +1,5 @@
 //! LDLᵀ factors of LANES symmetric band matrices at once: the per-pixel-weighted rows of the
-//! quasi-optimal row filter (SPEC §2.3 generalised, README "Missing pixels"). Their systems
+//! quasi-optimal row filter (SPEC §2.3 generalised, with missing pixels). Their systems
 //! A_t = Λ_t + blockdiag_ℓ(Σ w h hᵀ) change with every row but not with the pixel values, so
 //! LANES rows are factored side by side, one lane each: the factorisation of one matrix is a
 //! chain of dependent divisions along its order, and the lanes overlap those chains (one

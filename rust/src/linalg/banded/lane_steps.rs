@@ -45,7 +45,7 @@ impl LaneCoefficients for [f64] {
 /// x[k · span..(k + 1) · span], span = rows.len()) and writing them lane-major to rows
 /// (`rows[j][k] = x[k · span + j]`); returns the windows at the parts' ends. The
 /// coefficients of the t-th group of B steps start at `steps[group(t)]` (see
-/// [`LaneMajorDirection::steps`]).
+/// `partitioned::LaneMajorDirection::steps`).
 #[inline(always)]
 pub(crate) fn forward_steps<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
     x: &[f64],
@@ -75,7 +75,7 @@ pub(crate) fn forward_steps<A: Arith, const B: usize, C: LaneCoefficients + ?Siz
 }
 
 /// The steps of one substitution on all parts from zero windows (`rows` lane-major, see
-/// [`LaneMajor`]; backward from the last row); returns the windows at the parts' ends,
+/// `partitioned::LaneMajor`; backward from the last row); returns the windows at the parts' ends,
 /// oldest first.
 #[inline(always)]
 pub(crate) fn lane_steps<
@@ -107,7 +107,7 @@ pub(crate) fn lane_steps<
 }
 
 /// B steps of the LANES parts on the B rows of `group` (in reverse when `REV`); `coef`
-/// holds the steps' coefficients (see [`LaneMajorDirection::steps`]).
+/// holds the steps' coefficients (see `partitioned::LaneMajorDirection::steps`).
 #[inline(always)]
 fn lane_group<A: Arith, const B: usize, const REV: bool, C: LaneCoefficients + ?Sized>(
     group: &mut [Lanes],
@@ -125,7 +125,7 @@ fn lane_group<A: Arith, const B: usize, const REV: bool, C: LaneCoefficients + ?
 }
 
 /// One step of the LANES parts: `c` holds 1/L_ii and the coefficients (see
-/// [`LaneMajorDirection::steps`]), `window` the results before it.
+/// `partitioned::LaneMajorDirection::steps`), `window` the results before it.
 #[inline(always)]
 fn lane_step<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
     v: Lanes,
@@ -140,7 +140,7 @@ fn lane_step<A: Arith, const B: usize, C: LaneCoefficients + ?Sized>(
 /// The exact windows entering the parts of one substitution (by slot, then lane), `lead`
 /// that of its first part, `windows` its zero-start windows at the parts' ends (see
 /// [`lane_steps`]), `ends(k)` the end windows of part k's responses (see
-/// [`LaneMajorDirection::ends`]); and the exact window at the end of the last part.
+/// `partitioned::LaneMajorDirection::ends`); and the exact window at the end of the last part.
 #[inline(always)]
 pub(crate) fn entering_windows<'a, A: Arith, const B: usize, const REV: bool>(
     windows: &[Lanes; B],

@@ -1,4 +1,4 @@
-//! LaneMajor solves of a band Cholesky factor with a steady interior (the row systems of the
+//! Partitioned solves of a band Cholesky factor with a steady interior (the row systems of the
 //! quasi-optimal row filter, SPEC §2.3 generalised, once its model has settled).
 //!
 //! Away from the ends of a row, the factor of A = Λ + HᵀH/σ_θ² repeats with the period of
@@ -21,11 +21,9 @@
 //! where such rounding noise (flat across the interior, unlike a slow convergence from the
 //! ends) leaves less than half of a long factor steady (see [`snap_interior`]). A row is
 //! then replaced by one that differs from it by the same rounding noise, so the solutions
-//! move no more than that rounding already moved them: (4,4) at ρ = 0.9, W = 2048, the
-//! filter's outputs differ from the NumPy twin's by up to 2.98654e-6 (the conditioning of
-//! those systems) without the snap and 2.98659e-6 with it. The (4,4) factors at ρ ≥ 0.95
-//! would not be snapped even at 1e-7 (tried): they keep their rows and the per-part
-//! solves. Every solve of the factor (steady or not) uses the same rows.
+//! move no more than that rounding already moved them ((4,4) at ρ = 0.9: the distance to
+//! the NumPy twin changes in its 5th digit). The (4,4) factors at ρ ≥ 0.95 keep their rows
+//! and the per-part solves. Every solve of the factor (steady or not) uses the same rows.
 //!
 //! The wide bands (B = 11, 19) solve their steady interior by blocks (`steady_blocks`)
 //! instead of by parts.

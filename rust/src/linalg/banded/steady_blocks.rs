@@ -15,12 +15,11 @@
 //! partitioned solves of `steady_band`, nothing is corrected afterwards: those redo about B
 //! multiply-adds per position to correct the start of each part, which doubles the work
 //! of the wide bands (B = 11, 19). The blocks serve the n_y = 3, 4 filters (every n_x,
-//! K = m = 2…4) and the n_y = 2 ones with m ≥ 4 (see [`block_size`]): (2,2) in blocks of
-//! four positions ran at 93 Mpixel/s causal against 140 by parts (with two blocks per
-//! step too). Each step solves two blocks, the second by a look-ahead from the same blocks
-//! as the first (see [`recursion`]): one block per step was bound by the latency of its
-//! chain through the newest block. What else was tried, and what it measured:
-//! benches/ROW_FILTER_NOTES.md, "Block solves". The (4,4) factors reach their steady
+//! K = m = 2…4) and the n_y = 2 ones with m ≥ 4 (see [`block_size`]; (2,2) is faster by
+//! parts). Each step solves two blocks, the second by a look-ahead from the same blocks as
+//! the first (see [`recursion`]): one block per step was bound by the latency of its chain
+//! through the newest block. What else was tried: the design notes, "Block solves". The
+//! (4,4) factors reach their steady
 //! interior only through the 1e-8 snap of `steady_band`. The positions before and after
 //! the block interior are substituted one at a time with the factor's own coefficients.
 
@@ -251,12 +250,9 @@ struct Loaded<V, const K: usize> {
 /// `REV`, two per step: block j from the K blocks before it, and block j ± 1 from the
 /// same blocks (the look-ahead of [`BlockSteps`]), so that the two multiply-add chains of
 /// a step are independent and each waits on the previous step only through its last few
-/// products. One block at a time, the chain through the newest block made every step wait
-/// ~17 cycles (Zen 4) for 12 multiply-adds (B = 11). The last K blocks are carried in
-/// registers, their lanes broadcast by shuffles: broadcasting the older ones from the
-/// stored blocks instead ran ~40 % slower (B = 11). The blocks are read and written in x
-/// itself: copying the interior to and from a padded vector per block took ~14 % of the
-/// B = 11 solve.
+/// products. The last K blocks are carried in registers, their lanes broadcast by shuffles
+/// (broadcast from the stored blocks: ~40 % slower at B = 11), and the blocks are read and
+/// written in x itself, not copied to a padded vector.
 ///
 /// # Safety
 /// The CPU has the instructions of `V` (see [`F64x4`]).

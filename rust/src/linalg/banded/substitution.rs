@@ -74,9 +74,8 @@ pub(crate) use ring_group;
 /// The widest ring of [`ring_group!`] written out (held in registers).
 pub(super) const MAX_UNROLLED_RING: usize = 7;
 /// The same for the one-position substitutions ([`substitute`]), whose results are single
-/// values: their ring of B = 11 fits in the registers too. Through memory, each position's
-/// 11 window loads besides the 11 coefficients' made the ends of the (3,3) rows ~1/3 of
-/// its solves (~10.6 cycles per position); written out, the (3,3) filter ran 14 % faster.
+/// values: their ring of B = 11 fits in the registers too (the (3,3) filter ran 14 % faster
+/// than with it in memory).
 const MAX_UNROLLED_SCALAR_RING: usize = 11;
 
 /// One substitution over the positions [start, end) of its order (position p is x[p], or

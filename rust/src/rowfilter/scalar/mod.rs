@@ -63,8 +63,7 @@ pub enum RowModels {
     /// Propagated from the first predicted row on, for every image, the nominal ones too:
     /// each Λ_t fitted to the covariance the filter itself implies, so every RTS step pairs
     /// consistent models. It removes the loss of the plan's models near a unit root at high
-    /// SNR ((3,3), ρ_y = 0.9997, σ_θ²/σ_x² = 0.01, 32²: +1.1 % causal, +5.4 % smoothed; (2,2)
-    /// at ρ = 0.99979, 21 × 4: +19 %, +95 %), at the propagated rows' cost on every image.
+    /// SNR (up to +95 % smoothed, design notes), at the propagated rows' cost on every image.
     Implied,
 }
 
@@ -175,7 +174,7 @@ impl ScalarRowFilter {
     /// start rows t ≤ n_y read row n_y − t, the later ones row 0). A_t⁻¹ is the posterior
     /// covariance the filter assumes (its model Λ_t fitted to the optimal P_e,t): exact for
     /// the start rows, where Λ is the stationary prior's (m ≥ n_x); after them an
-    /// approximation of the filter's MSE (measured within −2.7 %…+0.13 % of it, README). The
+    /// approximation of the filter's MSE (within −2.7 %…+0.13 % of it, design notes). The
     /// band of A_t⁻¹ by selected inversion (`band_inverse`), O(W n_y b²) per factor: once per
     /// distinct factor of the plan for the nominal noise (`weights` None), per row (in
     /// parallel) for per-pixel 1/σ_θ² `weights` (0 = missing pixel), the systems the filter
@@ -384,12 +383,10 @@ fn variances(values: &[f64], sigma: f64) -> Vec<f64> {
 /// The default order m of the block AR model along the row for multiplicities (n_y, n_x):
 /// 8 for n_y = 1, [`model_ar_order`] = max(n_x, 2) (at most 8) otherwise. With one row in
 /// the state nothing absorbs the AR model's misfit to P_e (a smooth part plus a near-white
-/// one whose precision is not banded), and the loss grows as ρ → 1: (1,1) at ρ = 0.99, σ_x²/σ_θ² = 3 loses +10.7 %
-/// with m = 2, +4.7 % with m = 4, +1.4 % with m = 8 (48², exact MSEs), and m = 8 was never
-/// worse over ρ ≤ 0.999, σ_θ² ≥ 1e-10; the band b = m stays narrow (1.6× the time of m = 2,
-/// still > 100 Mpixel/s smoothed). For n_y ≥ 2 the older rows of the state absorb most of
-/// it and a wider band costs more (b = n_y(m + 1) − 1): max(n_x, 2) is within 0.4 % of
-/// n_x + 1 on the grid.
+/// one whose precision is not banded), and the loss grows as ρ → 1 ((1,1) at ρ = 0.99:
+/// +10.7 % with m = 2, +1.4 % with m = 8), while the band b = m stays narrow. For n_y ≥ 2
+/// the older rows of the state absorb most of it and a wider band costs more
+/// (b = n_y(m + 1) − 1): max(n_x, 2) is within 0.4 % of n_x + 1.
 pub fn default_ar_order(n_y: usize, n_x: usize) -> usize {
     if n_y == 1 {
         MAX_AR_ORDER
@@ -400,7 +397,7 @@ pub fn default_ar_order(n_y: usize, n_x: usize) -> usize {
 
 /// m = n_x, at least 2 and at most [`MAX_AR_ORDER`] (a field of n_x > 8 gets the longest row
 /// model there is): the default for n_y ≥ 2, and `denoise`'s for every model (its rows are
-/// weighted, refitted at O(W m³), or its model identified from a real image, README).
+/// weighted, refitted at O(W m³), or its model identified from a real image).
 pub fn model_ar_order(n_x: usize) -> usize {
     n_x.clamp(2, MAX_AR_ORDER)
 }

@@ -28,8 +28,7 @@ pub(super) fn band_change(band: &[Mat<f64>], other: &[Mat<f64>]) -> f64 {
 /// changes from row to row (the innovation Q is the same on every row), at least
 /// [`DRIFT_FLOOR`] times the band's largest entry. Against the band's largest entry alone, at
 /// high SNR (where P_e ≈ Q) the changes that matter looked 10²–10⁴ times smaller than they
-/// are and the models froze early: (1,2), ρ = 0.99, σ_x²/σ_θ² = 1e4 lost 16 % instead of 12 %
-/// against the optimal filter (32²).
+/// are and the models froze early.
 pub(super) fn drift_scale(band: &[Mat<f64>], innovation: &[Mat<f64>]) -> f64 {
     let varying = max_abs_difference(&band[0], Some(&innovation[0]));
     varying.max(DRIFT_FLOOR * max_abs_difference(&band[0], None))
@@ -41,12 +40,9 @@ pub(super) fn drift_scale(band: &[Mat<f64>], innovation: &[Mat<f64>]) -> f64 {
 /// more than [`RATIO_RISE`] against previous / earlier: a contraction that slows down is a
 /// slower mode taking over, and its tail is longer); at q ≥ 0.999 (not contracting yet, or
 /// changes at the rounding floor) change ≤ 1e-3 tolerance. One row's change ≤ tolerance
-/// alone froze slowly converging Riccatis (ρ = 0.999) far from their limit: (2,2) at
-/// σ_x²/σ_θ² = 1 lost 33 % against the optimal filter (48², now 0.1 %); the tail without
-/// the rising check froze (2,2) at ρ_y = 0.9999, σ_θ²/σ_x² = 0.01 at its fifth row, while
-/// its band drifts for ~600 rows (changes 1.0e-3, 5.5e-4, 3.5e-4, then growing again):
-/// +38 % causal, +84 % smoothed against the optimal filter and the bound (32²; now +1.2 % /
-/// +5.1 %, and `RowModels::Implied` +0.00 %).
+/// alone froze slowly converging Riccatis (ρ = 0.999) far from their limit, and the tail
+/// without the rising check froze a band that drifts for ~600 rows (ρ_y = 0.9999) at its
+/// fifth row: losses of 33 % and 84 % against the optimal filter (design notes).
 pub(super) fn settled(
     change: f64,
     previous: Option<f64>,

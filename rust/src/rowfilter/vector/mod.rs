@@ -24,10 +24,12 @@ use crate::rowfilter::row_dynamics::{ModeCovariance, RowDynamics};
 use crate::rowfilter::{check_images, row_axes, StateMatrix, MAX_ROW_ORDER};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
-use inverse_correlation::{InverseCorrelation, INFORMATION_RATIO};
+use inverse_correlation::InverseCorrelation;
 use rayon::prelude::*;
 
 mod inverse_correlation;
+
+pub use inverse_correlation::INFORMATION_RATIO;
 
 /// The optimal filter for one model, noise variance and row width.
 #[derive(Debug, Clone)]
