@@ -42,6 +42,15 @@ pub(super) fn contiguous<'a, T: Element, D: Dimension>(
         .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
 }
 
+/// The shape and the values of a writable array `name`, checked C-contiguous.
+pub(super) fn shaped_mut<'a, T: Element>(
+    a: &'a mut PyReadwriteArrayDyn<'_, T>,
+    name: &str,
+) -> PyResult<(Vec<usize>, &'a mut [T])> {
+    let shape = a.shape().to_vec();
+    Ok((shape, contiguous_mut(a, name)?))
+}
+
 /// The values of a writable array `name`, checked C-contiguous.
 pub(super) fn contiguous_mut<'a, T: Element, D: Dimension>(
     a: &'a mut PyReadwriteArray<'_, T, D>,

@@ -1,7 +1,7 @@
 //! Binding of the field model (SPEC §1): `kalmanfield._core.FieldModel` (sampling,
 //! streams, the product field, correlations, anisotropy) and `axis_correlation_table`.
 
-use super::convert::{contiguous, contiguous_mut, with_dtype};
+use super::convert::{contiguous, shaped_mut, with_dtype};
 use super::threads::with_threads;
 use crate::field::{
     anisotropy, correlation_table, product_field_into, sample_into, stream_frame_into,
@@ -9,7 +9,7 @@ use crate::field::{
 };
 use numpy::{
     Element, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+    PyReadonlyArrayDyn, PyReadwriteArrayDyn,
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -143,8 +143,7 @@ impl PyFieldModel {
         let given = noise_slice(&noise)?;
         let model = &self.inner;
         with_dtype!(out, PyReadwriteArrayDyn<f64, f32>, |array| {
-            let shape = array.shape().to_vec();
-            let slice = contiguous_mut(&mut array, "output")?;
+            let (shape, slice) = shaped_mut(&mut array, "output")?;
             py.detach(|| {
                 with_threads(threads, || {
                     sample_into(model, slice, &shape, seeded_or_given(seed, given))
@@ -170,8 +169,7 @@ impl PyFieldModel {
         let given = noise_slice(&noise)?;
         let model = &self.inner;
         with_dtype!(out, PyReadwriteArrayDyn<f64, f32>, |array| {
-            let shape = array.shape().to_vec();
-            let slice = contiguous_mut(&mut array, "output")?;
+            let (shape, slice) = shaped_mut(&mut array, "output")?;
             let noise = seeded_or_given(seed, given);
             stream_step(py, model, slice, &shape, &history, t, noise, threads)
         }, else Err(not_a_float_output()))
@@ -197,8 +195,7 @@ impl PyFieldModel {
             .transpose()?;
         let model = &self.inner;
         with_dtype!(out, PyReadwriteArrayDyn<f64, f32>, |array| {
-            let shape = array.shape().to_vec();
-            let slice = contiguous_mut(&mut array, "output")?;
+            let (shape, slice) = shaped_mut(&mut array, "output")?;
             py.detach(|| {
                 with_threads(threads, || {
                     product_field_into(model, slice, &shape, seed, slices.as_deref())
