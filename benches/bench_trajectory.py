@@ -1,4 +1,5 @@
-"""Speed of the batched trajectory filter (SPEC §4, [K95]) against NumPy, in one run.
+"""Speed of the batched trajectory filter (method page *Fuzzy filter*, §4.1; [K95]) against
+NumPy, in one run.
 
 Filters 10⁵ series × 100 samples (float64, C order, times 0..99, no missing sample) with the
 fuzzy filter P = P' = Q = Q' = R = 1 and compares, on the same array:
@@ -17,19 +18,17 @@ fuzzy filter P = P' = Q = Q' = R = 1 and compares, on the same array:
 
 Also: thread scaling on a 4× larger batch, and whether the GIL is released (the progress of
 a Python thread counting while the filter runs). Wall times are the best of ``--repeat`` runs
-(the machine is shared; compare within a run). The figures go to the section "speed" of
-``docs/benchmarks/trajectory.md``.
+(the machine is shared; compare within a run).
 
-Run: ``python benches/bench_trajectory.py [--quick] [--repeat 5]`` (``--quick``: 2·10⁴ series,
-no page update unless ``--write``). Build the extension with the release profile first.
+Run: ``python benches/bench_trajectory.py [--quick] [--repeat 5]``; the report is printed and
+written to the benchmark page ``docs/benchmarks/trajectory.md`` (``--quick``: 2·10⁴ series;
+a quick run or other options write ``bench_out/trajectory.md`` instead). Build the extension
+with the release profile first.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
-import platform
 import sys
 import threading
 import time
@@ -38,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from doc_section import write_section  # noqa: E402
+from bench_page import write_page  # noqa: E402
 
 import kalmanfield as kf  # noqa: E402
 from kalmanfield.reference import trajectory as ref  # noqa: E402
@@ -125,26 +124,12 @@ def gil_check(fn) -> tuple[int, int, float]:
     return during, idle, elapsed
 
 
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (
-        f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, NumPy {np.__version__}"
-    )
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--write", action="store_true", help="update the docs page (--quick)")
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
+    full_run = not args.quick and vars(args) == vars(parser.parse_args([]))
     n_series = 20_000 if args.quick else 100_000
     n = 100
     repeat = 2 if args.quick else args.repeat
@@ -208,12 +193,10 @@ def main() -> None:
     lines = [
         "## Speed of the batched filter",
         "",
-        f"Run of {datetime.date.today().isoformat()} on {machine()}; "
-        f"{n_series:,} series × {n} samples, best of {repeat} runs "
-        "(`python benches/bench_trajectory.py`); the machine was shared with other jobs "
-        f"(load average {os.getloadavg()[0]:.1f} at the end), so wall times vary; CPU times "
-        "(all threads of the process) are steadier. Ratio = the best NumPy recursion's time "
-        f"({anchor * 1e3:.0f} ms wall, {cpu_anchor * 1e3:.0f} ms CPU) / the row's time.",
+        f"{n_series:,} series × {n} samples, best of {repeat} runs. Wall times vary with the "
+        "other jobs on the machine; CPU times (all threads of the process) are steadier. "
+        f"Ratio = the best NumPy recursion's time ({anchor * 1e3:.0f} ms wall, "
+        f"{cpu_anchor * 1e3:.0f} ms CPU) / the row's time.",
         "",
         "| implementation | wall (ms) | ratio | CPU (ms) | CPU ratio |",
         "|---|---:|---:|---:|---:|",
@@ -246,9 +229,7 @@ def main() -> None:
     ]
     text = "\n".join(lines)
     print(text)
-    if not args.quick or args.write:
-        path = write_section("benchmarks/trajectory.md", "speed", text, title="Trajectory")
-        print(f"\nwritten to {path}")
+    write_page("trajectory", "Benchmark: trajectory filters", text, full_run=full_run)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
-"""Change-detection study (SPEC §4, [K95 8–10]): mean detection delay against false alarms per
-1,000 samples for the fuzzy, χ² and CUSUM detectors of ``kalmanfield.ChangeDetector``, and
-``ruptures`` (offline, sees the whole series) as the reference, when installed.
+"""Change-detection study (method page *Fuzzy filter*, §4.4; [K95 8–10]): mean detection
+delay against false alarms per 1,000 samples for the fuzzy, χ² and CUSUM detectors of
+``kalmanfield.ChangeDetector``, and ``ruptures`` (offline, sees the whole series) as the
+reference, when installed.
 
 Scenarios (2 × 2): a jump in position (size ``POSITION_JUMP`` R) or in velocity
 (``VELOCITY_JUMP`` R per sample) at a uniform random time in [100, 300) of a 400-sample
@@ -17,16 +18,15 @@ its false alarms the other breakpoints.
 Winner: at each false-alarm level of ``LEVELS`` (per 1,000 samples), the online method with the
 smallest delay (curves interpolated in log false-alarm rate, detection rate ≥ 90 %).
 
-Run: ``python benches/study_change_detection.py [--quick] [--series 2000]``; the table and
-the plot (``docs/images/trajectory_change_detection.png``) go to the section "study" of
-``docs/benchmarks/trajectory.md`` (``--quick``: 150 series, nothing written unless
-``--write``).
+Run: ``python benches/study_change_detection.py [--quick] [--series 2000]``; the report is
+printed and written to the benchmark page ``docs/benchmarks/change_detection.md``, the plot to
+``docs/images/trajectory_change_detection.png`` (``--quick``: 150 series, no plot; a quick run
+or other options write the page to ``bench_out/`` instead).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import sys
 import time
 from pathlib import Path
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from doc_section import DOCS, write_section  # noqa: E402
+from bench_page import ROOT, SCRATCH, write_page  # noqa: E402
 
 import kalmanfield as kf  # noqa: E402
 
@@ -171,10 +171,10 @@ def plot(results, path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--write", action="store_true")
     parser.add_argument("--series", type=int, default=2000)
     parser.add_argument("--ruptures-series", type=int, default=100)
     args = parser.parse_args()
+    full_run = not args.quick and vars(args) == vars(parser.parse_args([]))
     n_series = 150 if args.quick else args.series
     try:
         import ruptures  # noqa: F401
@@ -196,13 +196,12 @@ def main() -> None:
     elapsed = time.perf_counter() - start
 
     lines = [
-        "## Change detection: delay against false alarms",
+        "## Delay against false alarms",
         "",
-        f"Run of {datetime.date.today().isoformat()} (`python benches/study_change_detection.py"
-        f"{' --quick' if args.quick else ''}`): {n_series:,} series of {N_SAMPLES} samples per "
-        f"scenario, {elapsed:.0f} s. Position jumps of {POSITION_JUMP:g} R, velocity jumps of "
-        f"{VELOCITY_JUMP:g} R per sample; R = 1, Q = {Q}, Q' = {Q_VEL}; filters with the true "
-        f"spreads (a FuzzyFilter). Delay: mean over the detected jumps (horizon {HORIZON}).",
+        f"{n_series:,} series of {N_SAMPLES} samples per scenario, {elapsed:.0f} s. Position "
+        f"jumps of {POSITION_JUMP:g} R, velocity jumps of {VELOCITY_JUMP:g} R per sample; R = 1, "
+        f"Q = {Q}, Q' = {Q_VEL}; filters with the true spreads (a FuzzyFilter). Delay: mean over "
+        f"the detected jumps (horizon {HORIZON}).",
         "",
         "Delay (samples) at a given false-alarm rate per 1,000 samples (interpolated; — where "
         "the sweep does not reach the rate or detects < 90 %):",
@@ -250,19 +249,18 @@ def main() -> None:
                 f"{c:.6g} → {fa:.2f} / {d:.1f} [{rate:.0%}]" for c, fa, d, rate in rows
             )
             lines.append(f"| {jump}, {noise} | {method} | {cells} |")
-    image = DOCS / "images" / "trajectory_change_detection.png"
-    lines += [
-        "",
-        "![delay against false alarms](../images/trajectory_change_detection.png)",
-        "",
-        "(Crosses: sweep points detecting fewer than 90 % of the jumps within the horizon.)",
-    ]
-    text = "\n".join(lines)
-    print(text)
-    if not args.quick or args.write:
-        plot(results, image)
-        path = write_section("benchmarks/trajectory.md", "study", text, title="Trajectory")
-        print(f"\nwritten to {path} and {image}")
+    print("\n".join(lines))
+    if not args.quick:
+        images = ROOT / "docs" / "images" if full_run else SCRATCH
+        plot(results, images / "trajectory_change_detection.png")
+        lines += [
+            "",
+            "![delay against false alarms](../images/trajectory_change_detection.png)",
+            "",
+            "(Crosses: sweep points detecting fewer than 90 % of the jumps within the horizon.)",
+        ]
+    title = "Study: change detection"
+    write_page("change_detection", title, "\n".join(lines), full_run=full_run)
 
 
 if __name__ == "__main__":

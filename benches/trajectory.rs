@@ -1,6 +1,7 @@
-//! Criterion benchmarks of the trajectory kernels (SPEC §4, [K95]): the batched fuzzy filter
-//! (shared gains, struct-of-arrays blocks) on 10⁴ series × 100 samples, the same with
-//! per-series times (the series-by-series path), and the CUSUM detector.
+//! Criterion benchmarks of the trajectory kernels (method page *Fuzzy filter*, §4.1 and §4.4;
+//! [K95]): the batched fuzzy filter (shared gains, struct-of-arrays blocks) on 10⁴ series ×
+//! 100 samples, the same with per-series times (the series-by-series path), and the CUSUM
+//! detector.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use kalmanfield::trajectory::{

@@ -15,7 +15,7 @@ import pytest
 
 import kalmanfield as kf
 import kalmanfield.dask as kf_dask
-from kalmanfield import experiments
+from kalmanfield import experiments, trajectory
 from kalmanfield import io as kf_io
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,15 +34,16 @@ READ_FILES = sorted(
     ]
 )
 #: the names the API pages document: every name of kalmanfield.__all__, and the functions and
-#: classes of the subpackages imported by their own path ("experiments.type_confusion",
-#: "io.read_image", "dask.sample"; the last run only where dask is installed)
+#: classes of the subpackages that users import by their own path ("experiments.type_confusion",
+#: the trajectory domain's result types and plots: "trajectory.plot_gains", "io.read_image",
+#: "dask.sample"; the dask names only where dask is installed)
 HAVE_DASK = importlib.util.find_spec("dask") is not None
-SUBPACKAGES = {"experiments": experiments, "io": kf_io, "dask": kf_dask}
+SUBPACKAGES = [experiments, trajectory, kf_io] + ([kf_dask] if HAVE_DASK else [])
 PUBLIC = {name: getattr(kf, name) for name in kf.__all__} | {
-    f"{prefix}.{name}": getattr(module, name)
-    for prefix, module in SUBPACKAGES.items()
-    for name in module.__all__
-    if callable(getattr(module, name)) and (HAVE_DASK or prefix != "dask")
+    f"{sub.__name__.rpartition('.')[2]}.{name}": getattr(sub, name)
+    for sub in SUBPACKAGES
+    for name in sub.__all__
+    if callable(getattr(sub, name)) and name not in kf.__all__
 }
 SECTION = re.compile(r"§(\d+(?:\.\d+)?)(?:[–-](\d+(?:\.\d+)?))?")
 SOURCE_CITATION = re.compile(r"\[(?:P|K93|K95|F|I)\b[^\]]*\]")
@@ -79,10 +80,14 @@ def test_public_name_has_an_examples_section(name):
 
 def public_members(obj):
     """`obj` and, for a class, its public methods (static and class methods included) and
-    properties defined in kalmanfield."""
+    properties defined in kalmanfield (in the class or a kalmanfield base class)."""
     yield obj
     if inspect.isclass(obj):
-        for attr, member in vars(obj).items():
+        members = {}
+        for cls in reversed(obj.__mro__):
+            if cls.__module__.startswith("kalmanfield"):
+                members |= vars(cls)
+        for attr, member in members.items():
             if isinstance(member, (staticmethod, classmethod)):
                 member = member.__func__
             if not attr.startswith("_") and (

@@ -3,9 +3,10 @@ sequences, with a Rust core.
 
 The package is organised by domain: :mod:`kalmanfield.field` (random fields),
 :mod:`kalmanfield.identification`, :mod:`kalmanfield.rowfilter` (row Kalman filters),
-:mod:`kalmanfield.denoising`, :mod:`kalmanfield.tracking` and :mod:`kalmanfield.filterbank`
-(object types from trajectories); every public name is also here at the top level. The
-sources' Monte Carlo studies are in :mod:`kalmanfield.experiments`. The method pages of the
+:mod:`kalmanfield.denoising`, :mod:`kalmanfield.tracking`, :mod:`kalmanfield.filterbank`
+(object types from trajectories) and :mod:`kalmanfield.trajectory` (fuzzy and Kalman filters
+of a parameter's trajectory, change points); every public name is also here at the top level.
+The sources' Monte Carlo studies are in :mod:`kalmanfield.experiments`. The method pages of the
 documentation give the formulas and sources.
 """
 

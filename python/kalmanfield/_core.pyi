@@ -259,7 +259,7 @@ class IMMEstimator:
     def state_bytes(self) -> bytes: ...
     def load_state(self, state: bytes) -> None: ...
 
-# ---------------------------------------------------------------- trajectory (SPEC §4, [K95])
+# ---- trajectory: fuzzy and Kalman trajectory filters, change points (method page "Fuzzy filter")
 MAX_SPREAD: float
 MAX_SAMPLE: float
 MAX_WINDOW: int

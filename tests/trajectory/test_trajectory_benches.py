@@ -1,5 +1,6 @@
 """The benchmark and the study of the trajectory domain run in their quick modes (they check
-that every implementation agrees and every detector reports; nothing is written)."""
+that every implementation agrees and every detector reports; a quick run writes its page to
+bench_out/, never to docs/)."""
 
 import os
 import subprocess

@@ -1,4 +1,4 @@
-"""Estimates: == the NumPy twin (1e-12), == SPEC §4's recursion by hand for the first steps,
+"""Estimates: == the NumPy twin (1e-12), == §4.1's recursion by hand for the first steps,
 KalmanFilterCV == textbook Kalman filters (own matrices, FilterPy); streaming == batch,
 batched == one series at a time, any thread count; missing samples; irregular times;
 pickling mid-series resumes exactly."""

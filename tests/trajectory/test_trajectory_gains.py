@@ -1,4 +1,4 @@
-"""Gains of the fuzzy filter == SPEC §4's recursion computed by hand and == the NumPy twin;
+"""Gains of the fuzzy filter == §4.1's recursion computed by hand and == the NumPy twin;
 gains of KalmanFilterCV == a textbook Kalman filter with the same matrices."""
 
 import math
@@ -14,7 +14,7 @@ from kalmanfield.reference import trajectory as ref
 
 
 def spec_gains(P, Q, R, P_vel, Q_vel, times):
-    """SPEC §4 [K95 5–6] line by line: (α_n, β_n)."""
+    """§4.1 [K95 5–6] line by line: (α_n, β_n)."""
     P0_sq = R**2 * P**2 / (R**2 + P**2)
     out = [(P0_sq / R**2, 0.0)]
     Pn, Pvn = math.sqrt(P0_sq), P_vel

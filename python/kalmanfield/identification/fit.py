@@ -371,7 +371,7 @@ def _tested_rho(centred, axes, rho, order) -> tuple[float, ...]:
     SD), and whitened with it the residual failed the test at 1 % in 15 % of true grids."""
     if len(axes) < 2:
         return tuple(rho)
-    out = []
+    out: list[float] = []
     for k, n in zip(axes, order):
         others = [i for i, a in enumerate(axes) if a != k]
         partial = _residual(
@@ -405,7 +405,7 @@ def _model_axes(axes: Sequence[int] | None, ndim: int, channel: int | None) -> t
     if axes is None:
         return tuple(a for a in range(ndim) if a != channel)
     items: tuple[Any, ...] = (axes,) if isinstance(axes, numbers.Integral) else tuple(axes)
-    out = []
+    out: list[int] = []
     for a in items:
         if isinstance(a, (bool, np.bool_)) or not isinstance(a, numbers.Integral):
             raise TypeError(f"axes must hold integers, got {a!r}")

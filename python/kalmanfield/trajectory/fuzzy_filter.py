@@ -1,4 +1,5 @@
-"""The possibility-theory ("fuzzy") filter of a parameter's trajectory (SPEC §4, [K95 5–7])."""
+"""The possibility-theory ("fuzzy") filter of a parameter's trajectory (method page *Fuzzy
+filter*, §4.1; [K95 5–7])."""
 
 from __future__ import annotations
 
@@ -16,19 +17,34 @@ class FuzzyFilter(MotionFilter):
 
     Parameters
     ----------
-    P, Q, R : positive spreads of the initial position, of the position noise and of the
+    P, Q, R : float
+        Positive spreads of the initial position, of the position noise and of the
         measurements (at most 1e100).
-    P_vel, Q_vel : non-negative spreads of the initial velocity and of the velocity noise;
+    P_vel, Q_vel : float, optional
+        Non-negative spreads of the initial velocity and of the velocity noise;
         ``P_vel = Q_vel = 0`` (default) is the 1-D filter (no velocity: x̂' ≡ 0).
-    R_vel : spread of velocity measurements z'_n = x'_n + v'_n; given, it selects the variant
+    R_vel : float, optional
+        Spread of velocity measurements z'_n = x'_n + v'_n; given, it selects the variant
         with velocity measurements [K95 end] (pass them as ``velocity=``).
+
+    Raises
+    ------
+    ValueError
+        A spread that is not finite, negative (P, Q, R, R_vel: not positive) or above 1e100.
+    TypeError
+        A spread that is not a real number.
+
+    See Also
+    --------
+    KalmanFilterCV : The Kalman filter of the same model.
+    ChangeDetector : Restarts the filter where the trajectory's model jumps.
 
     Notes
     -----
-    The segment start (least squares on the first three samples, refitted causally), missing
-    samples, irregular times and every choice the source leaves open are on the method page
-    *Fuzzy filter* (:doc:`/methods/fuzzy_filter`). The filter pickles mid-series and resumes
-    exactly.
+    The gains are §4.1 of the method page *Fuzzy filter* (:doc:`/methods/fuzzy_filter`);
+    the segment start (least squares on the first three samples, refitted causally),
+    missing samples, irregular times and every choice the source leaves open are §4.3. The
+    filter pickles mid-series and resumes exactly.
 
     Examples
     --------

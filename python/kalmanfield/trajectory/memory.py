@@ -16,14 +16,18 @@ def effective_memory(gains: npt.ArrayLike, level: float = 0.01, tau: float = 1.0
 
     Parameters
     ----------
-    gains : the output of ``.gains(n)`` — an (n, 2) array whose last row (α, β) is taken as
-        the steady gains — or one pair (α, β), or one number α (β = 0).
-    level : the weight ω (default 0.01, the source's).
-    tau : the time step τ.
+    gains : array-like
+        The output of ``.gains(n)``, an (n, 2) array whose last row (α, β) is taken as the
+        steady gains; or one pair (α, β); or one number α (β = 0).
+    level : float, optional
+        The weight ω (default 0.01, the source's).
+    tau : float, optional
+        The time step τ (default 1).
 
     Returns
     -------
     int
+        The number of lags j ≥ 0 whose weight w_j exceeds `level` in absolute value.
 
     Raises
     ------
@@ -34,7 +38,8 @@ def effective_memory(gains: npt.ArrayLike, level: float = 0.01, tau: float = 1.0
     Notes
     -----
     At P = Q = R = 1, P' = Q' = 0 this gives 3 for :class:`FuzzyFilter` and 5 for
-    :class:`KalmanFilterCV` ([K95]: "3–4" and 5). See :doc:`/methods/fuzzy_filter`.
+    :class:`KalmanFilterCV` ([K95]: "3–4" and 5). The weights are §4.5 of the method page
+    *Fuzzy filter* (:doc:`/methods/fuzzy_filter`).
 
     Examples
     --------

@@ -1,5 +1,5 @@
 """What the fuzzy filter and the Kalman filter of the same model share: spreads, batched
-filtering, streaming and pickling (SPEC §4; method page *Fuzzy filter*)."""
+filtering, streaming and pickling (method page *Fuzzy filter*, §4.1–4.3)."""
 
 from __future__ import annotations
 
@@ -22,10 +22,33 @@ from ._inputs import (
 
 
 class TrajectoryEstimates(NamedTuple):
-    """Filtered positions x̂_n and velocities x̂'_n, each shaped like the samples."""
+    """Filtered positions x̂_n and velocities x̂'_n, each shaped like the samples.
+
+    What :meth:`FuzzyFilter.filter` and :meth:`KalmanFilterCV.filter` return; a named
+    tuple, so ``position, velocity = f.filter(z)`` works too.
+
+    Parameters
+    ----------
+    position : numpy.ndarray
+        The estimates x̂_n, shaped like the samples (NaN before a series' first observed
+        sample).
+    velocity : numpy.ndarray
+        The estimates x̂'_n (0 for the 1-D filter), shaped like the samples.
+
+    Examples
+    --------
+    >>> from kalmanfield import FuzzyFilter
+    >>> est = FuzzyFilter(P=1.0, Q=1.0, R=1.0, P_vel=1.0).filter([0.0, 1.0, 2.0, 3.0])
+    >>> est.position.round(6), est.velocity.round(6)
+    (array([0., 1., 2., 3.]), array([0., 1., 1., 1.]))
+    """
 
     position: np.ndarray
     velocity: np.ndarray
+
+
+TrajectoryEstimates.position.__doc__ = "The estimates x̂_n, shaped like the samples."
+TrajectoryEstimates.velocity.__doc__ = "The estimates x̂'_n, shaped like the samples."
 
 
 def _spread(value: Any, name: str, zero_allowed: bool) -> float:
@@ -40,7 +63,8 @@ def _spread(value: Any, name: str, zero_allowed: bool) -> float:
 
 
 class MotionFilter:
-    """Base of :class:`FuzzyFilter` and :class:`KalmanFilterCV` (not used directly)."""
+    """Base of :class:`FuzzyFilter` and :class:`KalmanFilterCV`: spreads, batched filtering,
+    streaming and pickling (not used directly; the subclasses set the gains' rule)."""
 
     _rule: ClassVar[str]
 
@@ -67,7 +91,7 @@ class MotionFilter:
     # ------------------------------------------------------------------ properties
     @property
     def spreads(self) -> dict[str, float | None]:
-        """P, Q, R, P_vel, Q_vel, R_vel."""
+        """The spreads by name: P, Q, R, P_vel, Q_vel and R_vel (None without it)."""
         return dict(zip(("P", "Q", "R", "P_vel", "Q_vel", "R_vel"), self._spreads))
 
     @property
@@ -94,14 +118,32 @@ class MotionFilter:
 
         Parameters
         ----------
-        n : number of samples.
-        times : the samples' times (default 0, 1, …, n-1); strictly increasing.
+        n : int
+            Number of samples.
+        times : array-like, optional
+            The samples' times (default 0, 1, …, n-1); strictly increasing.
 
         Returns
         -------
-        (n, 2) float64 array: α_n = the position gain, β_n such that the velocity correction
-        is β_n (z_n - x̂^e_n)/τ_n [K95 7] (β_0 = 0). With velocity measurements, β_n is the
-        gain of the velocity innovation z'_n - x̂'^e_n instead (see the subclasses).
+        numpy.ndarray
+            (n, 2) float64: α_n, the position gain, and β_n, such that the velocity
+            correction is β_n (z_n - x̂^e_n)/τ_n [K95 7] (β_0 = 0). With velocity
+            measurements, β_n is the gain of the velocity innovation z'_n - x̂'^e_n instead
+            (:class:`KalmanFilterCV` then returns its 2 × 2 gain matrices).
+
+        Raises
+        ------
+        ValueError
+            A non-positive `n`, times of the wrong shape, not finite or not strictly
+            increasing.
+
+        Examples
+        --------
+        >>> from kalmanfield import FuzzyFilter
+        >>> FuzzyFilter(P=1.0, Q=1.0, R=1.0, P_vel=1.0).gains(3).round(4)
+        array([[0.5   , 0.    ],
+               [0.8799, 0.1201],
+               [0.8921, 0.0925]])
         """
         raw, t = self._raw_gains(n, times)
         out = raw[:, [0, 2]].copy()
@@ -125,21 +167,27 @@ class MotionFilter:
 
         Parameters
         ----------
-        z : position samples; NaN marks a missing sample (its estimate is the prediction;
-            before a series' first observed sample the estimates are NaN).
-        times : sample times, 1-D (shared by every series) or shaped like `z` (per series);
+        z : array-like
+            Position samples, (n,) or (series, n); NaN marks a missing sample (its estimate
+            is the prediction; before a series' first observed sample the estimates are
+            NaN).
+        times : array-like, optional
+            Sample times, (n,) (shared by every series) or shaped like `z` (per series);
             default 0, 1, 2, …; strictly increasing.
-        velocity : velocity samples shaped like `z` (only with R_vel; NaN = missing).
-        out : optional (position, velocity) destination: two writeable C-contiguous float64
-            arrays shaped like `z` sharing no memory with it; reusing them across calls skips
-            the page faults of fresh outputs (a third of the time of a large batch, see the
-            benchmark page). When the filter raises, their content is unspecified.
-        threads : worker threads (default: all cores); the result does not depend on it.
+        velocity : array-like, optional
+            Velocity samples shaped like `z` (only with R_vel; NaN = missing).
+        out : tuple of two numpy.ndarray, optional
+            The (position, velocity) destination: two writeable C-contiguous float64
+            arrays shaped like `z` sharing no memory with it; reusing them across calls
+            skips the page faults of fresh outputs (a third of the time of a large batch,
+            see the benchmark page). When the filter raises, their content is unspecified.
+        threads : int, optional
+            Worker threads (default: all cores); the result does not depend on it.
 
         Returns
         -------
         TrajectoryEstimates
-            ``position`` and ``velocity``, shaped like `z`.
+            ``position`` and ``velocity``, shaped like `z` (the `out` arrays when given).
 
         Raises
         ------
@@ -147,7 +195,17 @@ class MotionFilter:
             Empty or ragged `z`, infinite samples or beyond ±1e150, times not finite or not
             strictly increasing, a wrong shape, spreads and time steps that overflow.
         TypeError
-            Non-numeric input.
+            Non-numeric input, or `out` not a pair of float64 arrays.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from kalmanfield import FuzzyFilter
+        >>> f = FuzzyFilter(P=1.0, Q=0.1, R=0.5, P_vel=0.5, Q_vel=0.01)
+        >>> z = np.array([[0.0, 1.1, 1.9, 3.2, 4.0], [5.0, 5.0, np.nan, 5.1, 4.9]])
+        >>> est = f.filter(z)  # two series at once
+        >>> est.position.shape, bool(np.isfinite(est.position).all())
+        ((2, 5), True)
         """
         arr = series_array(z)
         t = times_array(times, arr.shape)
@@ -169,17 +227,58 @@ class MotionFilter:
 
     # ------------------------------------------------------------------ streaming
     def reset(self) -> None:
-        """Forgets the streamed samples (:meth:`step` starts afresh)."""
+        """Forget the streamed samples (:meth:`step` starts afresh).
+
+        Examples
+        --------
+        >>> from kalmanfield import FuzzyFilter
+        >>> f = FuzzyFilter(P=1.0, Q=1.0, R=1.0)
+        >>> f.step(2.0)
+        (2.0, 0.0)
+        >>> f.reset()
+        >>> f.step([1.0, 3.0])  # a new stream, of two series
+        (array([1., 3.]), array([0., 0.]))
+        """
         self._bank: Any = None
         self._scalar = True
         self._t_last: float | None = None
 
     def step(self, z_n: Any, t_n: float | None = None, *, velocity: Any = None) -> tuple[Any, Any]:
-        """Filters the next sample of one series (a number) or of k series (a 1-D array).
+        """Filter the next sample of one series (a number) or of k series (a 1-D array).
 
-        ``t_n`` defaults to the previous time + 1 (0 at the first step); NaN = missing.
-        Returns (x̂_n, x̂'_n) as numbers or arrays. The sequence of steps gives the same bits
-        as :meth:`filter` on the whole series; the filter pickles mid-series.
+        The sequence of steps gives the same bits as :meth:`filter` on the whole series; the
+        filter pickles mid-series and resumes exactly.
+
+        Parameters
+        ----------
+        z_n : float or array-like
+            The sample of one series, or (k,) samples of k series; NaN = missing.
+        t_n : float, optional
+            The samples' time; default the previous time + 1 (0 at the first step).
+        velocity : float or array-like, optional
+            The velocity samples, shaped like `z_n` (required with R_vel, refused without).
+
+        Returns
+        -------
+        position : float or numpy.ndarray
+            The estimate x̂_n: a number for one series, a (k,) array for k.
+        velocity : float or numpy.ndarray
+            The estimate x̂'_n, likewise.
+
+        Raises
+        ------
+        ValueError
+            A time that does not increase, samples of another number of series than the
+            stream's (call :meth:`reset` first), velocity samples missing or not wanted.
+        TypeError
+            Non-numeric input.
+
+        Examples
+        --------
+        >>> from kalmanfield import FuzzyFilter
+        >>> f = FuzzyFilter(P=1.0, Q=1.0, R=1.0, P_vel=1.0)
+        >>> [f.step(z) for z in (0.0, 1.0, 2.0)]
+        [(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)]
         """
         z, scalar = step_samples(z_n)
         zv = None

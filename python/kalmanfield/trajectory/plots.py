@@ -37,8 +37,39 @@ def _pyplot() -> Any:
 def plot_gains(
     filters: Sequence[MotionFilter], n: int = 15, ax: Any = None, label: str = ""
 ) -> Any:
-    """α_n (circles) and β_n (squares) against n; fuzzy filters solid, Kalman dashed (the
-    style of [K95]'s figures). Returns the axes."""
+    """Plot the gains α_n (circles) and β_n (squares) of filters against n.
+
+    Fuzzy filters are drawn solid, Kalman filters dashed (the style of [K95]'s figures).
+
+    Parameters
+    ----------
+    filters : sequence of FuzzyFilter or KalmanFilterCV
+        The filters whose gains :meth:`FuzzyFilter.gains` are drawn.
+    n : int, optional
+        Number of samples (default 15).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default the current axes).
+    label : str, optional
+        Appended to each line's legend label.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes drawn on.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from kalmanfield import FuzzyFilter, KalmanFilterCV
+    >>> from kalmanfield.trajectory import plot_gains
+    >>> fig, ax = plt.subplots()
+    >>> filters = [FuzzyFilter(1.0, 1.0, 1.0), KalmanFilterCV(1.0, 1.0, 1.0)]
+    >>> len(plot_gains(filters, n=10, ax=ax).lines)
+    4
+    >>> plt.close(fig)
+    """
     plt = _pyplot()
     ax = ax if ax is not None else plt.gca()
     steps = np.arange(n)
@@ -54,8 +85,38 @@ def plot_gains(
 
 
 def plot_gain_comparison(figure: int = 1, n: int = 15) -> Any:
-    """[K95]'s Fig. 1 or Fig. 2: the gains of the fuzzy (solid) and Kalman (dashed) filters
-    for settings a and b side by side. Returns the matplotlib Figure."""
+    """Plot [K95]'s Fig. 1 or Fig. 2: the gains of the fuzzy and Kalman filters compared.
+
+    Settings a and b (:data:`SOURCE_FIGURES`) side by side; fuzzy solid, Kalman dashed.
+
+    Parameters
+    ----------
+    figure : {1, 2}, optional
+        The source's figure: 1 (R changes) or 2 (P, P' change); default 1.
+    n : int, optional
+        Number of samples (default 15).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, two axes.
+
+    Raises
+    ------
+    ValueError
+        A figure other than 1 or 2.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from kalmanfield.trajectory import plot_gain_comparison
+    >>> fig = plot_gain_comparison(2)
+    >>> len(fig.axes)
+    2
+    >>> plt.close(fig)
+    """
     if figure not in SOURCE_FIGURES:
         raise ValueError(f"figure must be 1 or 2, got {figure!r}")
     plt = _pyplot()
@@ -76,8 +137,40 @@ def plot_change_points(
     series: int = 0,
     ax: Any = None,
 ) -> Any:
-    """The samples, the restarted estimates and the alarms (vertical lines) of one series.
-    Returns the axes."""
+    """Plot one series' samples, its restarted estimates and its alarms (vertical lines).
+
+    Parameters
+    ----------
+    z : array-like
+        The samples given to :meth:`ChangeDetector.run`, (n,) or (series, n).
+    found : ChangePoints
+        What :meth:`ChangeDetector.run` returned for them.
+    times : array-like, optional
+        The samples' times, (n,) (default 0, 1, …).
+    series : int, optional
+        Which series of a batch to draw (default 0).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default the current axes).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes drawn on.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from kalmanfield import ChangeDetector, FuzzyFilter
+    >>> from kalmanfield.trajectory import plot_change_points
+    >>> z = np.r_[np.zeros(30), np.full(30, 10.0)]
+    >>> found = ChangeDetector(FuzzyFilter(P=1.0, Q=0.1, R=0.2)).run(z)
+    >>> fig, ax = plt.subplots()
+    >>> ax = plot_change_points(z, found, ax=ax)
+    >>> plt.close(fig)
+    """
     plt = _pyplot()
     ax = ax if ax is not None else plt.gca()
     zz = np.atleast_2d(np.asarray(z, dtype=float))[series]

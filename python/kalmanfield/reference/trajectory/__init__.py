@@ -1,7 +1,7 @@
-"""Plain-NumPy twin of the trajectory kernels (SPEC §4, source [K95]): the fuzzy and Kalman
-gains, the filters (one series, and vectorised over all series at once), the change
-detectors, the CUSUM threshold and the effective memory. Written from the method page
-*Fuzzy filter* (``docs/methods/fuzzy_filter.md``), independently of the Rust code."""
+"""Plain-NumPy twin of the trajectory kernels (source [K95]): the fuzzy and Kalman gains, the
+filters (one series, and vectorised over all series at once), the change detectors, the CUSUM
+threshold and the effective memory. Written from the method page *Fuzzy filter* (§4–4.5),
+independently of the Rust code."""
 
 from .cusum import cusum_arl, cusum_threshold
 from .detection import detect

@@ -1,6 +1,7 @@
-"""The filter of SPEC §4 [K95 5–7]: one series sample by sample (:class:`SeriesFilter`), and
-all series at once (:func:`filter_batch`, vectorised over series when the times are shared and
-no sample is missing — the NumPy floor the Rust kernel is benchmarked against).
+"""The filter of the method page *Fuzzy filter*, §4.1–4.3 [K95 5–7]: one series sample by
+sample (:class:`SeriesFilter`), and all series at once (:func:`filter_batch`, vectorised over
+series when the times are shared and no sample is missing — the NumPy floor the Rust kernel is
+benchmarked against).
 
 Segment start: a segment begins at the first observed sample; during its first three samples
 the start x̄_0, x̄'_0 is refitted by least squares on the observed samples so far and the
