@@ -36,8 +36,9 @@ def run(capsys, *argv):
 
 def test_version_is_cargo_toml_s(capsys):
     cargo = re.search(r'^version = "([^"]+)"', (ROOT / "Cargo.toml").read_text(), re.M)
-    done = subprocess.run([sys.executable, "-m", "kalmanfield", "--version"],
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-m", "kalmanfield", "--version"], capture_output=True, text=True
+    )
     assert done.returncode == 0
     assert done.stdout.strip() == f"kalmanfield {kf.__version__}"
     if kf.__version__ != "0+unknown":  # (a source tree that is not installed has no version)
@@ -65,16 +66,45 @@ def test_no_command_is_a_usage_error(capsys):
 
 # -- simulate ------------------------------------------------------------------------------
 def test_simulate_field_equals_sample(tmp_path, capsys):
-    code, out, _ = run(capsys, "simulate", "field", "--shape", "40", "30", "--rho", "0.9",
-                       "0.7", "--order", "2", "1", "--seed", "4", "--out", str(tmp_path / "f.npy"))
+    code, out, _ = run(
+        capsys,
+        "simulate",
+        "field",
+        "--shape",
+        "40",
+        "30",
+        "--rho",
+        "0.9",
+        "0.7",
+        "--order",
+        "2",
+        "1",
+        "--seed",
+        "4",
+        "--out",
+        str(tmp_path / "f.npy"),
+    )
     assert code == 0 and "f.npy" in out
     expected = kf.ARFieldModel([0.9, 0.7], [2, 1]).sample((40, 30), seed=4)
     assert np.array_equal(np.load(tmp_path / "f.npy"), expected)
 
 
 def test_simulate_field_into_zarr_row_by_row(tmp_path, capsys):
-    code, _, _ = run(capsys, "simulate", "field", "--shape", "300", "50", "--seed", "2",
-                     "--dtype", "float32", "--out", str(tmp_path / "f.zarr"), "--quiet")
+    code, _, _ = run(
+        capsys,
+        "simulate",
+        "field",
+        "--shape",
+        "300",
+        "50",
+        "--seed",
+        "2",
+        "--dtype",
+        "float32",
+        "--out",
+        str(tmp_path / "f.zarr"),
+        "--quiet",
+    )
     assert code == 0
     expected = kf.ARFieldModel([0.9, 0.9], [2, 2]).sample((300, 50), seed=2, dtype=np.float32)
     assert np.array_equal(io.open_zarr(tmp_path / "f.zarr")[...], expected)
@@ -83,8 +113,20 @@ def test_simulate_field_into_zarr_row_by_row(tmp_path, capsys):
 def test_simulate_sequence_with_a_model_file_and_noise(tmp_path, capsys):
     model = kf.ARFieldModel([0.95, 0.9, 0.8], [1, 2, 1], 2.0)
     io.write_model(tmp_path / "m.json", model)
-    argv = ["simulate", "sequence", "--model", str(tmp_path / "m.json"), "--frames", "7",
-            "--shape", "20", "16", "--seed", "3", "--quiet"]
+    argv = [
+        "simulate",
+        "sequence",
+        "--model",
+        str(tmp_path / "m.json"),
+        "--frames",
+        "7",
+        "--shape",
+        "20",
+        "16",
+        "--seed",
+        "3",
+        "--quiet",
+    ]
     assert run(capsys, *argv, "--out", str(tmp_path / "s.tif"))[0] == 0
     assert np.array_equal(io.read_stack(tmp_path / "s.tif"), model.sample((7, 20, 16), seed=3))
     assert run(capsys, *argv, "--noise-std", "0.5", "--out", str(tmp_path / "n.npy"))[0] == 0
@@ -132,8 +174,16 @@ def test_identify_a_colour_picture(tmp_path, capsys):
     x = kf.ARFieldModel([0.95, 0.95], [1, 1]).sample((128, 128), seed=1)
     rgb = np.stack([x, x + 0.1, x - 0.1], axis=-1)
     io.write_image(tmp_path / "c.png", rgb)
-    code, _, _ = run(capsys, "identify", str(tmp_path / "c.png"), "--json",
-                     str(tmp_path / "m.json"), "--plot", str(tmp_path / "p.png"), "--quiet")
+    code, _, _ = run(
+        capsys,
+        "identify",
+        str(tmp_path / "c.png"),
+        "--json",
+        str(tmp_path / "m.json"),
+        "--plot",
+        str(tmp_path / "p.png"),
+        "--quiet",
+    )
     assert code == 0 and io.read_model(tmp_path / "m.json").ndim == 2
 
 
@@ -167,8 +217,9 @@ def noisy_field(tmp_path_factory):
 
 def test_denoise_writes_the_estimate_and_its_error_map(noisy_field, tmp_path, capsys):
     folder, model, x, z = noisy_field
-    code, out, _ = run(capsys, "denoise", str(folder / "z.tif"), "--out-dir", str(tmp_path),
-                       "--quiet")
+    code, out, _ = run(
+        capsys, "denoise", str(folder / "z.tif"), "--out-dir", str(tmp_path), "--quiet"
+    )
     assert code == 0
     estimate = io.read_image(tmp_path / "z_denoised.tif")
     error = io.read_image(tmp_path / "z_error_variance.tif")
@@ -187,9 +238,18 @@ def test_denoise_with_a_model_file_and_a_picture(noisy_field, tmp_path, capsys):
     io.write_model(tmp_path / "m.json", kf.ARFieldModel(model.rho, model.order, 40.0))
     picture = np.clip(np.round(40 * z + 128), 0, 255).astype(np.uint8)
     io.write_image(tmp_path / "z.png", picture)
-    code, _, _ = run(capsys, "denoise", str(tmp_path / "z.png"), "--model",
-                     str(tmp_path / "m.json"), "--sigma", "20", "--out-dir", str(tmp_path),
-                     "--quiet")
+    code, _, _ = run(
+        capsys,
+        "denoise",
+        str(tmp_path / "z.png"),
+        "--model",
+        str(tmp_path / "m.json"),
+        "--sigma",
+        "20",
+        "--out-dir",
+        str(tmp_path),
+        "--quiet",
+    )
     assert code == 0
     estimate = io.read_image(tmp_path / "z_denoised.png")
     assert estimate.dtype == np.uint8 and estimate.shape == z.shape
@@ -200,22 +260,37 @@ def test_denoise_with_a_model_file_and_a_picture(noisy_field, tmp_path, capsys):
 
 def test_denoise_adaptive_has_no_error_map(noisy_field, tmp_path, capsys):
     folder, *_ = noisy_field
-    code, out, _ = run(capsys, "denoise", str(folder / "z.tif"), "--method", "adaptive",
-                       "--out-dir", str(tmp_path), "--format", ".npy")
+    code, out, _ = run(
+        capsys,
+        "denoise",
+        str(folder / "z.tif"),
+        "--method",
+        "adaptive",
+        "--out-dir",
+        str(tmp_path),
+        "--format",
+        ".npy",
+    )
     assert code == 0 and (tmp_path / "z_denoised.npy").is_file()
     assert not (tmp_path / "z_error_variance.npy").exists()
 
 
 def test_denoise_bad_input(noisy_field, tmp_path, capsys):
     folder, *_ = noisy_field
-    code, _, err = run(capsys, "denoise", str(folder / "z.tif"), "--sigma", "1",
-                       "--noise-var", "1")
+    code, _, err = run(capsys, "denoise", str(folder / "z.tif"), "--sigma", "1", "--noise-var", "1")
     assert code == 2 and "not allowed with" in err
     assert run(capsys, "denoise", str(folder / "z.tif"), "--sigma", "-1")[0] == 2
     assert run(capsys, "denoise", str(tmp_path / "none.tif"))[0] == 1
     (tmp_path / "m.json").write_text('{"rho": [0.9, 0.9], "order": [9, 9]}')
-    code, _, err = run(capsys, "denoise", str(folder / "z.tif"), "--model",
-                       str(tmp_path / "m.json"), "--out-dir", str(tmp_path))
+    code, _, err = run(
+        capsys,
+        "denoise",
+        str(folder / "z.tif"),
+        "--model",
+        str(tmp_path / "m.json"),
+        "--out-dir",
+        str(tmp_path),
+    )
     assert code == 1 and "multiplicity" in err
 
 
@@ -227,7 +302,9 @@ def _moving_spots(n_frames=12, size=64):
     for t in range(n_frames):
         for k, (x0, y0, vx, vy) in enumerate([(10, 12, 2.0, 1.0), (50, 40, -1.5, 0.5)]):
             x, y = x0 + vx * t, y0 + vy * t
-            frames[t] += 5 * np.outer(np.exp(-((grid - y) ** 2) / 2), np.exp(-((grid - x) ** 2) / 2))
+            frames[t] += 5 * np.outer(
+                np.exp(-((grid - y) ** 2) / 2), np.exp(-((grid - x) ** 2) / 2)
+            )
             truth.append((t, k, x, y))
     return frames, pd.DataFrame(truth, columns=["frame", "target", "x", "y"])
 
@@ -238,8 +315,15 @@ def test_track_follows_two_spots(tmp_path, capsys, container):
         pytest.importorskip("imageio_ffmpeg")
     frames, truth = _moving_spots()
     io.write_stack(tmp_path / container, frames)
-    code, out, _ = run(capsys, "track", str(tmp_path / container), "--threshold", "1.0"
-                       if container == "stack.tif" else "otsu", "--out-dir", str(tmp_path))
+    code, out, _ = run(
+        capsys,
+        "track",
+        str(tmp_path / container),
+        "--threshold",
+        "1.0" if container == "stack.tif" else "otsu",
+        "--out-dir",
+        str(tmp_path),
+    )
     assert code == 0 and "12 frames" in out
     tracks = pd.read_csv(tmp_path / f"{Path(container).stem}_tracks.csv")
     assert tracks.particle.nunique() == 2
@@ -263,8 +347,20 @@ def test_track_bad_input(tmp_path, capsys):
 
 # -- experiment ----------------------------------------------------------------------------
 def test_experiment_writes_the_table_and_the_plot(tmp_path, capsys):
-    code, _, _ = run(capsys, "experiment", "type-confusion", "--runs", "30", "--n-frames", "8",
-                     "--seed", "5", "--out", str(tmp_path), "--quiet")
+    code, _, _ = run(
+        capsys,
+        "experiment",
+        "type-confusion",
+        "--runs",
+        "30",
+        "--n-frames",
+        "8",
+        "--seed",
+        "5",
+        "--out",
+        str(tmp_path),
+        "--quiet",
+    )
     assert code == 0
     table = pd.read_csv(tmp_path / "type-confusion.csv")
     expected = kf.experiments.type_confusion(n_frames=8, runs=30, seed=5, progress=False).table

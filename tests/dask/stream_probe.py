@@ -31,8 +31,12 @@ def address_space() -> int:
 def main(folder: str) -> None:
     store = Path(folder)
     with dask.config.set(scheduler="threads", num_workers=2):
-        da.ones((4, 4), chunks=2).sum().compute()  # the thread pools exist before the limit
-        kf.segment(np.ones((8, 8)), 0.5)
+        # the thread pools (dask's, zarr's I/O, the Rust kernels') exist before the limit
+        warm = kfd.sample(MODEL, (64, 64), chunks=(32, 64), seed=0)
+        warm.to_zarr(str(store / "warm.zarr"), overwrite=True)
+        warm = da.from_zarr(str(store / "warm.zarr")).reshape(2, 32, 64)
+        kfd.denoise(warm, model=MODEL, noise_var=0.25, mean=0.0).compute()
+        kfd.segment(warm, 2.5).compute()
         limit = address_space() + HEADROOM
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         stack_bytes = ROWS * WIDTH * 4
@@ -52,8 +56,9 @@ def main(folder: str) -> None:
         head = da.from_zarr(str(store / "field.zarr"))[: 2 * FRAME_ROWS].compute()
         denoised_head = da.from_zarr(str(store / "denoised.zarr"))[:2].compute()
     expected = MODEL.sample((2 * FRAME_ROWS, WIDTH), seed=7, dtype=np.float32)
-    in_memory = kf.denoise(expected.reshape(2, FRAME_ROWS, WIDTH), model=MODEL,
-                           noise_var=0.25, mean=0.0)
+    in_memory = kf.denoise(
+        expected.reshape(2, FRAME_ROWS, WIDTH), model=MODEL, noise_var=0.25, mean=0.0
+    )
     record = {
         "limit": limit,
         "stack_bytes": stack_bytes,

@@ -18,9 +18,12 @@ from kalmanfield.experiments import type_confusion  # noqa: E402
 @pytest.fixture(scope="module")
 def client():
     # two workers of one thread each, in this process (no start-up of processes)
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
-    ) as cluster, distributed.Client(cluster) as c:
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as c,
+    ):
         yield c
 
 
@@ -66,8 +69,9 @@ def test_sample_refuses_what_sample_refuses():
 @pytest.mark.parametrize("chunks", [1, 3, 10])
 def test_denoise_equals_the_in_memory_denoise(noisy, chunks, client):
     model = kf.ARFieldModel([0.9, 0.9], [2, 2])
-    lazy = kfd.denoise(da.from_array(noisy, chunks=(chunks, 48, 40)), model=model,
-                       noise_var=0.25, mean=0.0)
+    lazy = kfd.denoise(
+        da.from_array(noisy, chunks=(chunks, 48, 40)), model=model, noise_var=0.25, mean=0.0
+    )
     expected = kf.denoise(noisy, model=model, noise_var=0.25, mean=0.0, method="stationary")
     assert np.array_equal(client.compute(lazy).result(), expected)
 
@@ -77,8 +81,7 @@ def test_denoise_fits_once_and_chunks_agree(noisy):
     all_ = kfd.denoise(da.from_array(noisy, chunks=(10, 48, 40))).compute()
     assert np.array_equal(one, all_)
     model, mean, noise_var = kf.model_from_noisy(noisy[0])
-    expected = kf.denoise(noisy, model=model, noise_var=noise_var, mean=mean,
-                          method="stationary")
+    expected = kf.denoise(noisy, model=model, noise_var=noise_var, mean=mean, method="stationary")
     assert np.array_equal(one, expected)
 
 

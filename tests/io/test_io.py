@@ -89,8 +89,12 @@ def test_model_json_round_trip(tmp_path):
 
 @pytest.mark.parametrize(
     "text, match",
-    [("not json", "not a JSON"), ('{"rho": [0.9]}', "'rho' and 'order'"),
-     ('{"rho": [1.5], "order": [1]}', "rho"), ('{"rho": [0.5], "order": ["x"]}', "order")],
+    [
+        ("not json", "not a JSON"),
+        ('{"rho": [0.9]}', "'rho' and 'order'"),
+        ('{"rho": [1.5], "order": [1]}', "rho"),
+        ('{"rho": [0.5], "order": ["x"]}', "order"),
+    ],
 )
 def test_bad_model_files(tmp_path, text, match):
     (tmp_path / "m.json").write_text(text)

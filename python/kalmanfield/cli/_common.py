@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 import traceback
 from collections.abc import Callable
-from typing import Any, TextIO
-
 from pathlib import Path
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -39,9 +38,12 @@ def common(parser: argparse.ArgumentParser, *, seed: int | None = None) -> None:
     """The options every command has, and ``--seed`` (default `seed`) where something is
     random."""
     if seed is not None:
-        parser.add_argument("--seed", type=nonnegative_int, default=seed,
-                            help=f"seed of the random numbers (default {seed}): the same seed, "
-                            "the same output")
+        parser.add_argument(
+            "--seed",
+            type=nonnegative_int,
+            default=seed,
+            help=f"seed of the random numbers (default {seed}): the same seed, the same output",
+        )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--debug", action="store_true", help="print tracebacks of errors")
 

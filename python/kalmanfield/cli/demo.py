@@ -24,17 +24,33 @@ def register(commands: argparse._SubParsersAction) -> None:
         "the truth and writes OUT/index.html (self-contained, figures embedded), "
         "OUT/tracks.gif, OUT/tracks.csv and OUT/numbers.json.",
     )
-    p.add_argument("--out", type=Path, default=Path("demo_out"), help="report folder "
-                   "(default demo_out)")
-    p.add_argument("--size", type=at_least(MIN_SIZE), default=256,
-                   help=f"frame side in px (default 256, at least {MIN_SIZE})")
-    p.add_argument("--frames", type=at_least(MIN_FRAMES), default=60,
-                   help=f"number of frames (default 60, at least {MIN_FRAMES})")
+    p.add_argument(
+        "--out", type=Path, default=Path("demo_out"), help="report folder (default demo_out)"
+    )
+    p.add_argument(
+        "--size",
+        type=at_least(MIN_SIZE),
+        default=256,
+        help=f"frame side in px (default 256, at least {MIN_SIZE})",
+    )
+    p.add_argument(
+        "--frames",
+        type=at_least(MIN_FRAMES),
+        default=60,
+        help=f"number of frames (default 60, at least {MIN_FRAMES})",
+    )
     p.add_argument("--targets", type=positive_int, default=8, help="point targets (default 8)")
-    p.add_argument("--noise-std", type=positive_float, default=1.0,
-                   help="std of the white noise (default 1; the clutter's is 1)")
-    p.add_argument("--save-arrays", action="store_true",
-                   help="also save the frames as .npy and the truth as CSV")
+    p.add_argument(
+        "--noise-std",
+        type=positive_float,
+        default=1.0,
+        help="std of the white noise (default 1; the clutter's is 1)",
+    )
+    p.add_argument(
+        "--save-arrays",
+        action="store_true",
+        help="also save the frames as .npy and the truth as CSV",
+    )
     common(p, seed=2026)
     p.set_defaults(run=run)
 

@@ -21,7 +21,8 @@ FORMATS = ("same", ".tif", ".npy", ".png")
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
-        "denoise", help="denoise image files with the row Kalman filters",
+        "denoise",
+        help="denoise image files with the row Kalman filters",
         description="Denoises each image z = x + white noise with the smoothed row Kalman "
         "filter and writes <stem>_denoised and <stem>_error_variance (the filter's predicted "
         "error variance per pixel). The field model and the noise level are estimated from "
@@ -30,17 +31,24 @@ def register(commands: argparse._SubParsersAction) -> None:
     )
     p.add_argument("images", type=Path, nargs="+", help="image files (or stacks)")
     p.add_argument("--out-dir", type=Path, default=Path("."), help="output folder (default .)")
-    p.add_argument("--format", choices=FORMATS, default="same",
-                   help="output format (default: the input's; a picture's error map is "
-                   "always written as .tif, to keep its values)")
+    p.add_argument(
+        "--format",
+        choices=FORMATS,
+        default="same",
+        help="output format (default: the input's; a picture's error map is "
+        "always written as .tif, to keep its values)",
+    )
     level = p.add_mutually_exclusive_group()
     level.add_argument("--sigma", type=positive_float, help="noise std (default: estimated)")
     level.add_argument("--noise-var", type=positive_float, help="noise variance")
     p.add_argument("--model", type=Path, help="field model JSON (default: fitted to each image)")
-    p.add_argument("--method", choices=["stationary", "vector", "adaptive"],
-                   default="stationary",
-                   help="stationary: O(W) row filter (default); vector: the optimal O(W²) "
-                   "filter; adaptive: local-statistics filter (no error map)")
+    p.add_argument(
+        "--method",
+        choices=["stationary", "vector", "adaptive"],
+        default="stationary",
+        help="stationary: O(W) row filter (default); vector: the optimal O(W²) "
+        "filter; adaptive: local-statistics filter (no error map)",
+    )
     p.add_argument("--causal", action="store_true", help="no smoothing pass over the rows")
     common(p)
     p.set_defaults(run=run)

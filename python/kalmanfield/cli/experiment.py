@@ -12,7 +12,8 @@ from ._common import OK, common, positive_int, say
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
-        "experiment", help="run a Monte Carlo experiment of the sources: CSV table + plot",
+        "experiment",
+        help="run a Monte Carlo experiment of the sources: CSV table + plot",
         description="Runs a registered Monte Carlo experiment and writes <name>.csv (its "
         "table) and <name>.png (its plot); with --scheduler its jobs run on a Dask cluster.",
     )
@@ -22,13 +23,19 @@ def register(commands: argparse._SubParsersAction) -> None:
         for option in spec.options:
             if option.name == "seed":
                 continue
-            q.add_argument(f"--{option.name.replace('_', '-')}", dest=option.name,
-                           type=positive_int if option.kind is int else option.kind,
-                           default=option.default,
-                           help=f"{option.help} (default {option.default})")
+            q.add_argument(
+                f"--{option.name.replace('_', '-')}",
+                dest=option.name,
+                type=positive_int if option.kind is int else option.kind,
+                default=option.default,
+                help=f"{option.help} (default {option.default})",
+            )
         q.add_argument("--out", type=Path, default=Path("."), help="output folder (default .)")
-        q.add_argument("--scheduler", metavar="ADDRESS",
-                       help="a dask.distributed scheduler (tcp://host:8786) to run the jobs on")
+        q.add_argument(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="a dask.distributed scheduler (tcp://host:8786) to run the jobs on",
+        )
         seeds = [o.default for o in spec.options if o.name == "seed"]
         common(q, seed=seeds[0] if seeds else None)
         q.set_defaults(run=run)

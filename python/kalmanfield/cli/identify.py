@@ -14,18 +14,24 @@ from ._common import OK, common, load_data, positive_int, say
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
-        "identify", help="fit the AR model of an image or a stack: JSON + correlation plot",
+        "identify",
+        help="fit the AR model of an image or a stack: JSON + correlation plot",
         description="Identifies the separable multiple-root AR model of an image (a stack of "
         "frames: time first) by likelihood per axis (kalmanfield.identify); writes the model "
         "with its diagnostics as JSON and the sample against the fitted correlation as PNG, "
         "and prints the summary. Colour images are fitted with their channels as replicates.",
     )
-    p.add_argument("image", type=Path, help="an image, a TIFF/zarr/.npy stack or a folder "
-                   "of frames")
+    p.add_argument(
+        "image", type=Path, help="an image, a TIFF/zarr/.npy stack or a folder of frames"
+    )
     p.add_argument("--json", type=Path, help="model file (default <stem>_model.json)")
     p.add_argument("--plot", type=Path, help="correlation plot (default <stem>_correlation.png)")
-    p.add_argument("--max-order", type=positive_int, default=4,
-                   help="highest multiplicity tried per axis (default 4)")
+    p.add_argument(
+        "--max-order",
+        type=positive_int,
+        default=4,
+        help="highest multiplicity tried per axis (default 4)",
+    )
     common(p)
     p.set_defaults(run=run)
 

@@ -19,41 +19,78 @@ KINDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None]]] = {}
 
 
 def _model_options(p: argparse.ArgumentParser, rho: list[float], order: list[int]) -> None:
-    p.add_argument("--model", type=Path, help="a model JSON file (written by `identify`); "
-                   "replaces --rho, --order and --sigma")
-    p.add_argument("--rho", type=float, nargs="+", default=rho,
-                   help=f"ρ per axis, each in (-1, 1) (default {' '.join(map(str, rho))})")
-    p.add_argument("--order", type=positive_int, nargs="+", default=order,
-                   help=f"root multiplicity per axis (default {' '.join(map(str, order))})")
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="a model JSON file (written by `identify`); replaces --rho, --order and --sigma",
+    )
+    p.add_argument(
+        "--rho",
+        type=float,
+        nargs="+",
+        default=rho,
+        help=f"ρ per axis, each in (-1, 1) (default {' '.join(map(str, rho))})",
+    )
+    p.add_argument(
+        "--order",
+        type=positive_int,
+        nargs="+",
+        default=order,
+        help=f"root multiplicity per axis (default {' '.join(map(str, order))})",
+    )
     p.add_argument("--sigma", type=positive_float, default=1.0, help="field std (default 1)")
     p.add_argument("--mean", type=float, default=0.0, help="field mean (default 0)")
     p.add_argument("--dtype", choices=["float64", "float32"], default="float64")
 
 
 def _field_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--shape", type=positive_int, nargs="+", default=[512, 512],
-                   help="grid shape, one length per axis (default 512 512)")
+    p.add_argument(
+        "--shape",
+        type=positive_int,
+        nargs="+",
+        default=[512, 512],
+        help="grid shape, one length per axis (default 512 512)",
+    )
     _model_options(p, [0.9, 0.9], [2, 2])
-    p.add_argument("--out", type=Path, required=True,
-                   help="output: .npy, .tif or .zarr keep the values; .png is 8-bit, for "
-                   "viewing; a .zarr is written row by row (a field larger than memory)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output: .npy, .tif or .zarr keep the values; .png is 8-bit, for "
+        "viewing; a .zarr is written row by row (a field larger than memory)",
+    )
 
 
 def _sequence_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--frames", type=positive_int, default=100, help="frames (default 100)")
-    p.add_argument("--shape", type=positive_int, nargs="+", default=[256, 256],
-                   help="frame shape (default 256 256)")
+    p.add_argument(
+        "--shape",
+        type=positive_int,
+        nargs="+",
+        default=[256, 256],
+        help="frame shape (default 256 256)",
+    )
     _model_options(p, [0.95, 0.9, 0.9], [1, 2, 2])
-    p.add_argument("--noise-std", type=float, default=0.0,
-                   help="std of white noise added to every frame (default 0: none)")
-    p.add_argument("--out", type=Path, required=True,
-                   help="output: .zarr or .tif (written frame by frame), .npy, a folder of "
-                   "PNG frames (a path without suffix), .gif or .mp4 (for viewing)")
+    p.add_argument(
+        "--noise-std",
+        type=float,
+        default=0.0,
+        help="std of white noise added to every frame (default 0: none)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output: .zarr or .tif (written frame by frame), .npy, a folder of "
+        "PNG frames (a path without suffix), .gif or .mp4 (for viewing)",
+    )
 
 
 KINDS["field"] = ("one realisation of a random field", _field_options)
-KINDS["sequence"] = ("frames of a space–time field (axis 0 of the model is time)",
-                     _sequence_options)
+KINDS["sequence"] = (
+    "frames of a space–time field (axis 0 of the model is time)",
+    _sequence_options,
+)
 # HOOK (issue 52): once kalmanfield.simulate_scene exists, register "scene" here, e.g.
 # KINDS["scene"] = ("a scene: clutter, targets, extended objects; frames + truth CSV",
 #                   _scene_options), with _scene_options setting `run=_scene` on its parser.
@@ -61,7 +98,8 @@ KINDS["sequence"] = ("frames of a space–time field (axis 0 of the model is tim
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
-        "simulate", help="simulate a field or a frame sequence into a file",
+        "simulate",
+        help="simulate a field or a frame sequence into a file",
         description="Simulates an exactly stationary AR field (ARFieldModel.sample) or a "
         "sequence of frames (FieldStream) and writes it.",
     )
@@ -108,8 +146,15 @@ def _field(args: argparse.Namespace, model: ARFieldModel) -> None:
         write_image(args.out, field)
 
 
-def _frames(stream, count: int, mean: float, args: argparse.Namespace, unit: str,
-            noise: np.random.Generator | None = None, noise_std: float = 0.0) -> Iterator:
+def _frames(
+    stream,
+    count: int,
+    mean: float,
+    args: argparse.Namespace,
+    unit: str,
+    noise: np.random.Generator | None = None,
+    noise_std: float = 0.0,
+) -> Iterator:
     for _ in tqdm.tqdm(range(count), desc="simulate", unit=unit, disable=args.quiet):
         frame = stream.next_frame() + mean
         if noise is not None:
@@ -128,6 +173,6 @@ def _sequence(args: argparse.Namespace, model: ARFieldModel) -> None:
     stream = model.stream(tuple(args.shape), seed=args.seed, dtype=args.dtype)
     # the noise has its own stream, derived from the seed (the field is model.sample's)
     noise = np.random.default_rng([args.seed, 1]) if args.noise_std > 0 else None
-    write_stack(args.out, _frames(stream, args.frames, args.mean, args, "frame", noise,
-                                  args.noise_std))
-
+    write_stack(
+        args.out, _frames(stream, args.frames, args.mean, args, "frame", noise, args.noise_std)
+    )

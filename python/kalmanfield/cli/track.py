@@ -27,7 +27,8 @@ def _threshold(text: str) -> float | str:
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
-        "track", help="detect and track moving spots in frames: tracks CSV + overlay figure",
+        "track",
+        help="detect and track moving spots in frames: tracks CSV + overlay figure",
         description="Reads the frames one at a time (a folder of images, a TIFF stack, a "
         ".npy or zarr stack, a GIF or a video through imageio's ffmpeg plugin; colour is "
         "averaged to grey), segments each (pixels above the threshold), tracks the segments "
@@ -37,17 +38,34 @@ def register(commands: argparse._SubParsersAction) -> None:
     p.add_argument("frames", type=Path, help="folder, stack or video of the frames")
     p.add_argument("--out-dir", type=Path, default=Path("."), help="output folder (default .)")
     p.add_argument("--name", default=None, help="output file stem (default: the input's)")
-    p.add_argument("--threshold", type=_threshold, default="otsu",
-                   help="foreground threshold of every frame, or 'otsu' (default, per frame)")
-    p.add_argument("--min-area", type=positive_int, default=1,
-                   help="smallest segment in pixels (default 1)")
+    p.add_argument(
+        "--threshold",
+        type=_threshold,
+        default="otsu",
+        help="foreground threshold of every frame, or 'otsu' (default, per frame)",
+    )
+    p.add_argument(
+        "--min-area", type=positive_int, default=1, help="smallest segment in pixels (default 1)"
+    )
     p.add_argument("--invert", action="store_true", help="dark objects on a bright background")
-    p.add_argument("--measurement-std", type=positive_float, default=0.5,
-                   help="std of a detected position, px (default 0.5)")
-    p.add_argument("--process-std", type=positive_float, default=0.2,
-                   help="std of the random acceleration, px/frame² (default 0.2)")
-    p.add_argument("--max-misses", type=positive_int, default=3,
-                   help="longest run of frames a track coasts without a detection (default 3)")
+    p.add_argument(
+        "--measurement-std",
+        type=positive_float,
+        default=0.5,
+        help="std of a detected position, px (default 0.5)",
+    )
+    p.add_argument(
+        "--process-std",
+        type=positive_float,
+        default=0.2,
+        help="std of the random acceleration, px/frame² (default 0.2)",
+    )
+    p.add_argument(
+        "--max-misses",
+        type=positive_int,
+        default=3,
+        help="longest run of frames a track coasts without a detection (default 3)",
+    )
     p.add_argument("--max-frames", type=positive_int, help="stop after this many frames")
     p.add_argument("--no-figure", action="store_true", help="write the CSV only")
     common(p)
@@ -57,8 +75,12 @@ def register(commands: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if not args.no_figure:
         optional("matplotlib", "the overlay figure")  # before the work, not after
-    tracker = BranchingTracker(2, measurement_std=args.measurement_std,
-                               process_std=args.process_std, max_misses=args.max_misses)
+    tracker = BranchingTracker(
+        2,
+        measurement_std=args.measurement_std,
+        process_std=args.process_std,
+        max_misses=args.max_misses,
+    )
     last = None
     n_frames = n_spots = 0
     frames = iter_frames(args.frames, grey=True)
@@ -80,8 +102,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_figure:
         written.append(args.out_dir / f"{stem}_tracks.png")
         _overlay(written[1], np.asarray(last), tracks, f"{args.frames.name}: {n_frames} frames")
-    say(args, f"{n_frames} frames, {n_spots} segments, {tracks.particle.nunique()} tracks; "
-        f"wrote {', '.join(map(str, written))}")
+    say(
+        args,
+        f"{n_frames} frames, {n_spots} segments, {tracks.particle.nunique()} tracks; "
+        f"wrote {', '.join(map(str, written))}",
+    )
     return OK
 
 
@@ -95,8 +120,14 @@ def _overlay(path: Path, frame: np.ndarray, tracks: pd.DataFrame, title: str) ->
     fig.colorbar(shown, ax=ax, shrink=0.8, label="intensity (last frame)")
     for particle, track in tracks.groupby("particle"):
         line = ax.plot(track.x, track.y, lw=1.5)[0]
-        ax.annotate(str(particle), (track.x.iloc[-1], track.y.iloc[-1]), color=line.get_color(),
-                    fontsize=8, xytext=(3, 3), textcoords="offset points")
+        ax.annotate(
+            str(particle),
+            (track.x.iloc[-1], track.y.iloc[-1]),
+            color=line.get_color(),
+            fontsize=8,
+            xytext=(3, 3),
+            textcoords="offset points",
+        )
     ax.set_xlim(-0.5, frame.shape[1] - 0.5)
     ax.set_ylim(frame.shape[0] - 0.5, -0.5)
     ax.set_xlabel("x (px)")

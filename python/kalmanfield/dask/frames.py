@@ -11,11 +11,11 @@ import pandas as pd
 
 from ..denoising import denoise as _denoise
 from ..identification import model_from_noisy
+from ..io._optional import optional
 from ..rowfilter.base import RowFilter
 from ..tracking import segment as _segment
 from ..tracking.segment import COLUMNS, otsu_from_histogram
 from ._dask import as_frames, chunk_starts, dask_array
-from ..io._optional import optional
 
 
 def filter(frames: Any, row_filter: RowFilter) -> Any:

@@ -280,7 +280,9 @@ def type_confusion(
     ['bank', 'frame', 'confusion', 'low', 'high', 'trials']
     """
     jobs = plan(models, n_frames, runs, seed, threads)
-    partials = [run_job(job) for job in tqdm.tqdm(jobs, disable=not progress, desc="type confusion")]
+    partials = [
+        run_job(job) for job in tqdm.tqdm(jobs, disable=not progress, desc="type confusion")
+    ]
     return combine(jobs, partials)
 
 

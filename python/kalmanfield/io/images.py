@@ -366,7 +366,7 @@ def write_stack(path: PathLike, frames: npt.ArrayLike | Iterable[np.ndarray], *,
         write_zarr(p, frames)
         return
     if suffix in TIFF_SUFFIXES:
-        _write_tiff(p, frames if streaming else _stack(frames))
+        _write_tiff(p, frames if streaming else _stack(frames))  # type: ignore[arg-type]
         return
     stack = _stack(np.stack(list(frames)) if streaming else frames)  # type: ignore[arg-type]
     p.parent.mkdir(parents=True, exist_ok=True)

@@ -127,7 +127,7 @@ def write_zarr(
         )
         array[...] = stack
         return array
-    return _append_frames(zarr, p, iter(frames), chunks)
+    return _append_frames(zarr, p, iter(frames), chunks)  # type: ignore[arg-type]
 
 
 def _append_frames(zarr: Any, path: Path, frames: Any, chunks: tuple[int, ...] | None) -> Any:

@@ -57,12 +57,24 @@ def filtering(
     fig, axes = plt.subplots(2, 2, figsize=(11, 9.5), constrained_layout=True)
     low, high = np.percentile(observed, [0.5, 99.5])
     _image(axes[0, 0], observed, "observed frame", "intensity", vmin=low, vmax=high)
-    _image(axes[0, 1], filtered, "clutter estimate (ScalarRowFilter, smoothed)", "intensity",
-           vmin=low, vmax=high)
-    _image(axes[1, 0], error_map, "predicted error variance of the filter", "error variance",
-           cmap="viridis")
-    _image(axes[1, 1], detect, "residual correlated with the spot shape", "noise stds",
-           cmap="magma")
+    _image(
+        axes[0, 1],
+        filtered,
+        "clutter estimate (ScalarRowFilter, smoothed)",
+        "intensity",
+        vmin=low,
+        vmax=high,
+    )
+    _image(
+        axes[1, 0],
+        error_map,
+        "predicted error variance of the filter",
+        "error variance",
+        cmap="viridis",
+    )
+    _image(
+        axes[1, 1], detect, "residual correlated with the spot shape", "noise stds", cmap="magma"
+    )
     fig.suptitle(caption)
     return png(fig)
 
@@ -78,9 +90,14 @@ def tracks_over_frame(
         ax.plot(target.x, target.y, "w:", lw=1.2, label="true path" if i == 0 else None)
     for _, track in tracks.groupby("particle"):
         line = ax.plot(track.x, track.y, lw=1.6)[0]
-        ax.annotate(str(track.particle.iloc[-1]), (track.x.iloc[-1], track.y.iloc[-1]),
-                    color=line.get_color(), fontsize=8, xytext=(3, 3),
-                    textcoords="offset points")
+        ax.annotate(
+            str(track.particle.iloc[-1]),
+            (track.x.iloc[-1], track.y.iloc[-1]),
+            color=line.get_color(),
+            fontsize=8,
+            xytext=(3, 3),
+            textcoords="offset points",
+        )
     ax.plot([], [], "C0-", label="track (number = particle)")
     ax.set_xlim(0, frame.shape[1] - 1)
     ax.set_ylim(frame.shape[0] - 1, 0)
@@ -103,8 +120,14 @@ def detection_and_types(p_o: np.ndarray, confusion: pd.DataFrame, gate: float) -
     counts = confusion.to_numpy()
     shown = right.imshow(counts, cmap="Blues", vmin=0)
     for (i, j), n in np.ndenumerate(counts):
-        right.text(j, i, str(n), ha="center", va="center",
-                   color="white" if n > counts.max() / 2 else "black")
+        right.text(
+            j,
+            i,
+            str(n),
+            ha="center",
+            va="center",
+            color="white" if n > counts.max() / 2 else "black",
+        )
     right.set_xticks(range(counts.shape[1]), confusion.columns)
     right.set_yticks(range(counts.shape[0]), confusion.index)
     right.set_xlabel("type decided for the track (TypeIdentifier.run_tracks)")
@@ -124,7 +147,9 @@ def change_points(
         if change_frame is not None:
             ax.axvline(change_frame, color="k", ls="--", label="true change")
         for k, frame in enumerate(alarms):
-            ax.axvline(frame, color="C3", lw=1.5, label="alarm (ChangeDetector)" if k == 0 else None)
+            ax.axvline(
+                frame, color="C3", lw=1.5, label="alarm (ChangeDetector)" if k == 0 else None
+            )
         ax.set_ylabel(f"{column} (px)")
         ax.legend(fontsize=8, loc="best")
         ax.grid(alpha=0.3)
@@ -157,8 +182,15 @@ def animation_frames(
             if len(recent) and recent.frame.iloc[-1] == f:
                 colour = colours[int(particle) % len(colours)]
                 drawn += ax.plot(recent.x, recent.y, "-", color=colour, lw=1.5)
-                drawn.append(ax.text(recent.x.iloc[-1] + 3, recent.y.iloc[-1] - 3,
-                                     str(particle), color=colour, fontsize=7))
+                drawn.append(
+                    ax.text(
+                        recent.x.iloc[-1] + 3,
+                        recent.y.iloc[-1] - 3,
+                        str(particle),
+                        color=colour,
+                        fontsize=7,
+                    )
+                )
         label.set_text(f"frame {f}: matched residual and tracks")
         fig.canvas.draw()
         out.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
@@ -166,3 +198,20 @@ def animation_frames(
             artist.remove()
     plt.close(fig)
     return out
+
+
+def extended_objects(
+    frame: np.ndarray, masks: list[np.ndarray], tracks: list[pd.DataFrame], title: str
+) -> bytes:
+    """The detected objects' masks outlined on a frame, with their centre tracks."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 6), constrained_layout=True)
+    _image(ax, frame, title, "matched residual (noise std)")
+    for k, (mask, track) in enumerate(zip(masks, tracks)):
+        colour = plt.cm.tab10(k % 10)
+        if mask.any():
+            ax.contour(mask.astype(float), levels=[0.5], colors=[colour], linewidths=1.2)
+        ax.plot(track["x"], track["y"], "-", color=colour, lw=1.2, label=f"object {k}")
+    if tracks:
+        ax.legend(loc="upper right", fontsize=8)
+    return png(fig)

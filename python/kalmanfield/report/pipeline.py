@@ -31,7 +31,7 @@ from .metrics import (
 from .scene import Scene, simulate_scene
 
 #: the tracker of the demo (px, frames): nearly constant velocity with rare manoeuvres
-TRACKER = dict(
+TRACKER: dict[str, Any] = dict(
     process_std=0.15, measurement_std=0.5, max_misses=3, maneuver_std=1.5, maneuver_prob=0.01
 )
 #: the change detector's model of a measured coordinate (px): CUSUM of the Kalman innovations
@@ -109,7 +109,7 @@ def matched(residual: np.ndarray, radius: int = 3) -> np.ndarray:
     """The residual frames (F, H, W) correlated with a target's spot (a Gaussian of σ = 1 px,
     unit energy), separably: white noise keeps its variance, a spot of peak a rises to
     ≈ 1.77 a."""
-    taps = np.exp(-np.arange(-radius, radius + 1) ** 2 / 2.0)
+    taps = np.exp(-(np.arange(-radius, radius + 1) ** 2) / 2.0)
     taps /= np.sqrt(np.sum(taps**2))
     out = residual
     for axis in (1, 2):
@@ -213,8 +213,23 @@ def run_demo(settings: DemoSettings) -> DemoResult:
     confusion = type_confusion_matrix(decided, scene.truth, follows, names)
     step("types identified")
     numbers = _numbers(settings, scene, filtering, scores, p_o, changes, confusion, tracks)
-    files = _write(out, settings, scene, filtered, detect, error_map, tracks, decided, measured,
-                   alarms, follows, p_o, confusion, numbers, step)
+    files = _write(
+        out,
+        settings,
+        scene,
+        filtered,
+        detect,
+        error_map,
+        tracks,
+        decided,
+        measured,
+        alarms,
+        follows,
+        p_o,
+        confusion,
+        numbers,
+        step,
+    )
     numbers["seconds"] = round(time.perf_counter() - start, 2)
     (out / "numbers.json").write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
     bar.close()
@@ -243,15 +258,33 @@ def _numbers(settings, scene, filtering, scores, p_o, changes, confusion, tracks
     }
 
 
-def _write(out, settings, scene, filtered, detect, error_map, tracks, decided, measured, alarms,
-           follows, p_o, confusion, numbers, step) -> dict[str, Path]:
+def _write(
+    out,
+    settings,
+    scene,
+    filtered,
+    detect,
+    error_map,
+    tracks,
+    decided,
+    measured,
+    alarms,
+    follows,
+    p_o,
+    confusion,
+    numbers,
+    step,
+) -> dict[str, Path]:
     files: dict[str, Path] = {}
     table = tracks.merge(decided[["particle", "type"]], on="particle", how="left")
     files["tracks"] = out / "tracks.csv"
     table.to_csv(files["tracks"], index=False)
     if settings.save_arrays:
-        for name, array in (("observed", scene.observed), ("filtered", filtered),
-                            ("clean", scene.clean)):
+        for name, array in (
+            ("observed", scene.observed),
+            ("filtered", filtered),
+            ("clean", scene.clean),
+        ):
             files[name] = out / f"{name}.npy"
             np.save(files[name], array)
         files["truth"] = out / "truth.csv"
@@ -260,8 +293,19 @@ def _write(out, settings, scene, filtered, detect, error_map, tracks, decided, m
     files["animation"] = out / "tracks.gif"
     _save_gif(files["animation"], gif_frames)
     step("animation written")
-    pictures = _pictures(scene, filtered, detect, error_map, tracks, measured, alarms, follows, p_o,
-                         confusion, numbers)
+    pictures = _pictures(
+        scene,
+        filtered,
+        detect,
+        error_map,
+        tracks,
+        measured,
+        alarms,
+        follows,
+        p_o,
+        confusion,
+        numbers,
+    )
     files["report"] = out / "index.html"
     files["report"].write_text(
         _report(numbers, pictures, files["animation"].read_bytes()), encoding="utf-8"
@@ -275,23 +319,35 @@ def _save_gif(path: Path, frames: list[np.ndarray], fps: float = 8.0) -> None:
     from PIL import Image  # matplotlib's own dependency
 
     images = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE) for f in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps),
-                   loop=0, optimize=True)
+    images[0].save(
+        path,
+        save_all=True,
+        append_images=images[1:],
+        duration=int(1000 / fps),
+        loop=0,
+        optimize=True,
+    )
 
 
-def _pictures(scene, filtered, detect, error_map, tracks, measured, alarms, follows, p_o, confusion,
-              numbers) -> list[tuple[bytes, str]]:
+def _pictures(
+    scene, filtered, detect, error_map, tracks, measured, alarms, follows, p_o, confusion, numbers
+) -> list[tuple[bytes, str]]:
     fit = numbers["filtering"]["fit"]
     out = [
         (
-            figures.fields(scene.clutter[0], scene.clean[0], scene.observed[0], repr(scene.background)),
+            figures.fields(
+                scene.clutter[0], scene.clean[0], scene.observed[0], repr(scene.background)
+            ),
             "Figure 1 — fields. Left: one frame of the clutter, a (1, 2, 2) space–time AR field "
             "(ARFieldModel / FieldStream, axis 0 time); middle: with the point targets "
             "(Gaussian spots); right: the observed frame, with white noise added.",
         ),
         (
             figures.filtering(
-                scene.observed[0], filtered[0], error_map, detect[0],
+                scene.observed[0],
+                filtered[0],
+                error_map,
+                detect[0],
                 f"frame 0; model fitted to the noisy frames: {fit['model']}",
             ),
             "Figure 2 — filtered frame and error map. The observed frame; its clutter as "
@@ -304,7 +360,9 @@ def _pictures(scene, filtered, detect, error_map, tracks, measured, alarms, foll
         ),
         (
             figures.tracks_over_frame(
-                detect[-1], tracks, scene.truth,
+                detect[-1],
+                tracks,
+                scene.truth,
                 f"BranchingTracker tracks over the last detection frame "
                 f"(IDF1 {numbers['tracking']['idf1']:.3f}, MOTA {numbers['tracking']['mota']:.3f})",
             ),
@@ -322,6 +380,9 @@ def _pictures(scene, filtered, detect, error_map, tracks, measured, alarms, foll
             "acceleration).",
         ),
     ]
+    extended = _extended_objects(detect, numbers)
+    if extended is not None:
+        out.append(extended)
     changed = scene.changes.itertuples()
     for change in changed:
         track = follows.get(int(change.particle))
@@ -331,17 +392,44 @@ def _pictures(scene, filtered, detect, error_map, tracks, measured, alarms, foll
         out.append(
             (
                 figures.change_points(
-                    series, alarms[track], int(change.frame),
+                    series,
+                    alarms[track],
+                    int(change.frame),
                     f"track {track} (target {change.particle}, velocity jump at frame "
                     f"{change.frame})",
                 ),
-                f"Figure 5 — change points. The measured x and y of track {track}; the true "
-                f"velocity jump of its target (dashed) and the alarms of ChangeDetector (CUSUM "
-                "of the Kalman innovations, red) on its x and y series.",
+                f"Figure {len(out) + 1} — change points. The measured x and y of track "
+                f"{track}; the true velocity jump of its target (dashed) and the alarms of "
+                "ChangeDetector (CUSUM of the Kalman innovations, red) on its x and y series.",
             )
         )
         break
     return out
+
+
+def _extended_objects(detect: np.ndarray, numbers: dict) -> tuple[bytes, str] | None:
+    """The figure of kalmanfield.detect_moving_objects (extended objects made of fragments)
+    on the detection frames, when this build has it; None otherwise."""
+    import kalmanfield
+
+    detector = getattr(kalmanfield, "detect_moving_objects", None)
+    if detector is None:
+        return None
+    objects = detector(detect, noise_std=1.0, threshold=numbers["settings"]["threshold"])[:5]
+    last = len(detect) - 1
+    picture = figures.extended_objects(
+        detect[last],
+        [o.mask(last) for o in objects],
+        [o.track for o in objects],
+        f"detect_moving_objects: the {len(objects)} best objects, frame {last}",
+    )
+    numbers["extended_objects"] = {"shown": len(objects)}
+    return (
+        picture,
+        "Figure 5 — extended objects. The objects kalmanfield.detect_moving_objects found in "
+        "the detection frames (groups of segments moving together): the outline of each "
+        "object's segments in the last frame and the track of its centre.",
+    )
 
 
 def _report(numbers: dict, pictures: list[tuple[bytes, str]], gif: bytes) -> str:
@@ -354,8 +442,9 @@ def _report(numbers: dict, pictures: list[tuple[bytes, str]], gif: bytes) -> str
         (
             "Denoising: MSE of the clutter estimate",
             html.table(["estimate", "MSE"], [(k, f"{v:.4f}") for k, v in mse.items()])
-            + "<p>The clean frames hold the targets too, which no clutter model predicts, so "
-            "the filters' MSE sits a little above the bound.</p>",
+            + f"<p>Over the pixels farther than {numbers['filtering']['away_px']:g} px from "
+            "every target, where the observed frame is the clutter plus white noise: the model "
+            "the Wiener bound is about.</p>",
         ),
         (
             "Tracking against the truth",
@@ -380,10 +469,16 @@ def _report(numbers: dict, pictures: list[tuple[bytes, str]], gif: bytes) -> str
                 [
                     ("true velocity changes", cp["true_changes"]),
                     ("detected within 10 frames", cp["detected"]),
-                    ("detection delays (frames)", ", ".join(
-                        "missed" if d is None else f"{d:g}" for d in cp["delays"]) or "–"),
-                    ("mean delay (frames)", "–" if cp["mean_delay_frames"] is None
-                     else f"{cp['mean_delay_frames']:.1f}"),
+                    (
+                        "detection delays (frames)",
+                        ", ".join("missed" if d is None else f"{d:g}" for d in cp["delays"]) or "–",
+                    ),
+                    (
+                        "mean delay (frames)",
+                        "–"
+                        if cp["mean_delay_frames"] is None
+                        else f"{cp['mean_delay_frames']:.1f}",
+                    ),
                     ("false alarms / track frames", f"{cp['false_alarms']} / {cp['track_frames']}"),
                     ("targets of the right type", f"{ty['correct']} / {ty['targets']}"),
                 ],
@@ -392,8 +487,12 @@ def _report(numbers: dict, pictures: list[tuple[bytes, str]], gif: bytes) -> str
         ("Figures", "".join(html.figure(data, caption) for data, caption in pictures)),
         (
             "Animation",
-            html.figure(gif, "Figure 6 — the detection frames (matched residual) with the tracks (last 12 points "
-                        "of each, numbered), also written as tracks.gif.", mime="image/gif"),
+            html.figure(
+                gif,
+                f"Figure {len(pictures) + 1} — the detection frames (matched residual) with "
+                "the tracks (last 12 points of each, numbered), also written as tracks.gif.",
+                mime="image/gif",
+            ),
         ),
     ]
     intro = (

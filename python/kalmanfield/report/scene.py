@@ -124,4 +124,6 @@ def simulate_scene(
             rows.append((f, i, paths[f, i, 0], paths[f, i, 1], kinds[i]))
     observed = clean + rng.normal(0.0, noise_std, clean.shape)
     truth = pd.DataFrame(rows, columns=["frame", "particle", "x", "y", "type"])
-    return Scene(observed, clean, clutter, truth, changes, noise_std**2, BACKGROUND, types, amplitude)
+    return Scene(
+        observed, clean, clutter, truth, changes, noise_std**2, BACKGROUND, types, amplitude
+    )
