@@ -102,13 +102,16 @@ def test_the_numbers(report):
     mse = numbers["filtering"]["mse"]
     bound = mse["Wiener bound (no estimator of the clutter does better)"]
     # the smoothed row filter with the true model is within a few % of the bound on the
-    # clutter (method page *Row filters*: +0.65 % in expectation; 40 frames of 128²: the
+    # clutter (method page *Row filters*: +0.65 % in expectation; 40 frames of 160²: the
     # sampling SD of the ratio is ~2 %)
     assert 0.97 < mse["row filter, true model"] / bound < 1.1
     assert mse["row filter, model fitted to the noisy frames"] < 1.1 * mse["row filter, true model"]
     assert mse["noisy frames"] > 30 * bound
     tracking = numbers["tracking"]
-    # seeds 0–5 of this configuration (2026-12-02): IDF1 0.93–1.0, MOTA 0.9–0.99
+    # seeds 0–5 of this configuration (2026-12-02): fitted/true-model MSE 1.001–1.006,
+    # true model/bound 1.005–1.029, IDF1 0.91–1.0, MOTA 0.95–1.0, 2–3 of 3 changes found,
+    # types right for 3–6 of 6 targets (4 on seed 3: the bank sees at most 40 frames, fewer
+    # after a change point, so this is a check of seed 3, not of the bank's rate)
     assert tracking["idf1"] > 0.8 and tracking["mota"] > 0.75
     changes = numbers["change_points"]
     assert changes["true_changes"] == 3 and changes["detected"] >= 2
