@@ -43,7 +43,7 @@ PUBLIC = {name: getattr(kf, name) for name in kf.__all__} | {
     f"{sub.__name__.rpartition('.')[2]}.{name}": getattr(sub, name)
     for sub in SUBPACKAGES
     for name in sub.__all__
-    if callable(getattr(sub, name)) and name not in kf.__all__
+    if callable(getattr(sub, name)) and getattr(sub, name) is not getattr(kf, name, None)
 }
 SECTION = re.compile(r"§(\d+(?:\.\d+)?)(?:[–-](\d+(?:\.\d+)?))?")
 SOURCE_CITATION = re.compile(r"\[(?:P|K93|K95|F|I)\b[^\]]*\]")

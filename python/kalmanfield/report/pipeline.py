@@ -62,6 +62,24 @@ class DemoResult:
     files: dict[str, Path] = field(default_factory=dict)
 
 
+@dataclass
+class Stages:
+    """What every stage of the demo produced, read by the figures and the files."""
+
+    scene: Scene
+    filtered: np.ndarray
+    error_map: np.ndarray
+    detect: np.ndarray
+    tracks: pd.DataFrame
+    measured: pd.DataFrame
+    alarms: dict
+    follows: dict
+    p_o: np.ndarray
+    decided: pd.DataFrame
+    confusion: pd.DataFrame
+    numbers: dict[str, Any]
+
+
 #: pixels farther than this from every target are the clutter-only pixels of the MSE (px)
 AWAY = 8.0
 
@@ -213,23 +231,21 @@ def run_demo(settings: DemoSettings) -> DemoResult:
     confusion = type_confusion_matrix(decided, scene.truth, follows, names)
     step("types identified")
     numbers = _numbers(settings, scene, filtering, scores, p_o, changes, confusion, tracks)
-    files = _write(
-        out,
-        settings,
+    run = Stages(
         scene,
         filtered,
-        detect,
         error_map,
+        detect,
         tracks,
-        decided,
         measured,
         alarms,
         follows,
         p_o,
+        decided,
         confusion,
         numbers,
-        step,
     )
+    files = _write(out, settings, run, step)
     numbers["seconds"] = round(time.perf_counter() - start, 2)
     (out / "numbers.json").write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
     bar.close()
@@ -258,25 +274,10 @@ def _numbers(settings, scene, filtering, scores, p_o, changes, confusion, tracks
     }
 
 
-def _write(
-    out,
-    settings,
-    scene,
-    filtered,
-    detect,
-    error_map,
-    tracks,
-    decided,
-    measured,
-    alarms,
-    follows,
-    p_o,
-    confusion,
-    numbers,
-    step,
-) -> dict[str, Path]:
+def _write(out: Path, settings: DemoSettings, run: Stages, step: Any) -> dict[str, Path]:
+    scene, filtered, tracks = run.scene, run.filtered, run.tracks
     files: dict[str, Path] = {}
-    table = tracks.merge(decided[["particle", "type"]], on="particle", how="left")
+    table = tracks.merge(run.decided[["particle", "type"]], on="particle", how="left")
     files["tracks"] = out / "tracks.csv"
     table.to_csv(files["tracks"], index=False)
     if settings.save_arrays:
@@ -289,26 +290,14 @@ def _write(
             np.save(files[name], array)
         files["truth"] = out / "truth.csv"
         scene.truth.to_csv(files["truth"], index=False)
-    gif_frames = figures.animation_frames(detect, tracks)
+    gif_frames = figures.animation_frames(run.detect, tracks)
     files["animation"] = out / "tracks.gif"
     _save_gif(files["animation"], gif_frames)
     step("animation written")
-    pictures = _pictures(
-        scene,
-        filtered,
-        detect,
-        error_map,
-        tracks,
-        measured,
-        alarms,
-        follows,
-        p_o,
-        confusion,
-        numbers,
-    )
+    pictures = _pictures(run)
     files["report"] = out / "index.html"
     files["report"].write_text(
-        _report(numbers, pictures, files["animation"].read_bytes()), encoding="utf-8"
+        _report(run.numbers, pictures, files["animation"].read_bytes()), encoding="utf-8"
     )
     files["numbers"] = out / "numbers.json"
     step("report written")
@@ -329,9 +318,8 @@ def _save_gif(path: Path, frames: list[np.ndarray], fps: float = 8.0) -> None:
     )
 
 
-def _pictures(
-    scene, filtered, detect, error_map, tracks, measured, alarms, follows, p_o, confusion, numbers
-) -> list[tuple[bytes, str]]:
+def _pictures(run: Stages) -> list[tuple[bytes, str]]:
+    scene, detect, numbers = run.scene, run.detect, run.numbers
     fit = numbers["filtering"]["fit"]
     out = [
         (
@@ -345,8 +333,8 @@ def _pictures(
         (
             figures.filtering(
                 scene.observed[0],
-                filtered[0],
-                error_map,
+                run.filtered[0],
+                run.error_map,
                 detect[0],
                 f"frame 0; model fitted to the noisy frames: {fit['model']}",
             ),
@@ -361,7 +349,7 @@ def _pictures(
         (
             figures.tracks_over_frame(
                 detect[-1],
-                tracks,
+                run.tracks,
                 scene.truth,
                 f"BranchingTracker tracks over the last detection frame "
                 f"(IDF1 {numbers['tracking']['idf1']:.3f}, MOTA {numbers['tracking']['mota']:.3f})",
@@ -371,7 +359,7 @@ def _pictures(
             "matched residual).",
         ),
         (
-            figures.detection_and_types(p_o, confusion, GATE),
+            figures.detection_and_types(run.p_o, run.confusion, GATE),
             "Figure 4 — P_o and type confusion. Left: the probability of correct detection per "
             f"frame (a target counts when a track point lies within {GATE:g} px of it). Right: "
             "the targets by true type and the type TypeIdentifier.run_tracks decided for the "
@@ -385,15 +373,15 @@ def _pictures(
         out.append(extended)
     changed = scene.changes.itertuples()
     for change in changed:
-        track = follows.get(int(change.particle))
-        if track is None or track not in alarms:
+        track = run.follows.get(int(change.particle))
+        if track is None or track not in run.alarms:
             continue
-        series = measured[measured.particle == track].sort_values("frame")
+        series = run.measured[run.measured.particle == track].sort_values("frame")
         out.append(
             (
                 figures.change_points(
                     series,
-                    alarms[track],
+                    run.alarms[track],
                     int(change.frame),
                     f"track {track} (target {change.particle}, velocity jump at frame "
                     f"{change.frame})",
