@@ -54,6 +54,8 @@ def filtering(
     caption: str,
 ) -> bytes:
     plt = _pyplot()
+    from matplotlib.colors import LogNorm
+
     fig, axes = plt.subplots(2, 2, figsize=(11, 9.5), constrained_layout=True)
     low, high = np.percentile(observed, [0.5, 99.5])
     _image(axes[0, 0], observed, "observed frame", "intensity", vmin=low, vmax=high)
@@ -68,9 +70,10 @@ def filtering(
     _image(
         axes[1, 0],
         error_map,
-        "predicted error variance of the filter",
+        "predicted error variance of the filter (log scale: the borders are worse)",
         "error variance",
         cmap="viridis",
+        norm=LogNorm(),
     )
     _image(
         axes[1, 1], detect, "residual correlated with the spot shape", "noise stds", cmap="magma"
@@ -159,7 +162,7 @@ def change_points(
 
 
 def animation_frames(
-    frames: np.ndarray, tracks: pd.DataFrame, tail: int = 12, side: int = 320
+    frames: np.ndarray, tracks: pd.DataFrame, tail: int = 12, side: int = 256
 ) -> list[np.ndarray]:
     """RGB frames (uint8) of the filtered sequence with every track's last `tail` points
     and its number drawn over it."""
@@ -215,3 +218,15 @@ def extended_objects(
     if tracks:
         ax.legend(loc="upper right", fontsize=8)
     return png(fig)
+
+
+def animation_palette(greys: int = 16) -> list[tuple[int, int, int]]:
+    """The GIF's colours: `greys` grey levels for the frames (noise-like frames compress
+    about 3× better than with 256 colours), the tracks' colours and the label's yellow."""
+    from matplotlib.colors import to_rgb
+
+    plt = _pyplot()
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"] + ["yellow"]
+    levels = [(v, v, v) for v in np.linspace(0, 255, greys).round().astype(int).tolist()]
+    rgb = [to_rgb(colour) for colour in colours]
+    return levels + [(round(255 * r), round(255 * g), round(255 * b)) for r, g, b in rgb]

@@ -119,7 +119,13 @@ def _denoise(scene: Scene) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
             scene.frame_model, scene.noise_var, (h, w)
         ),
     }
-    fit = {"model": repr(model), "noise_var": noise_var, "true_noise_var": scene.noise_var}
+    fit = {
+        "model": repr(model),
+        "summary": f"order {model.order}, rho {np.round(model.rho, 3).tolist()}, "
+        f"sigma {model.sigma:.3f}, noise std {np.sqrt(noise_var):.3f}",
+        "noise_var": noise_var,
+        "true_noise_var": scene.noise_var,
+    }
     return filtered, error_map, {"mse": errors, "fit": fit, "away_px": AWAY}
 
 
@@ -307,7 +313,13 @@ def _write(out: Path, settings: DemoSettings, run: Stages, step: Any) -> dict[st
 def _save_gif(path: Path, frames: list[np.ndarray], fps: float = 8.0) -> None:
     from PIL import Image  # matplotlib's own dependency
 
-    images = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE) for f in frames]
+    colours = [c for rgb in figures.animation_palette() for c in rgb]
+    palette = Image.new("P", (1, 1))
+    palette.putpalette(colours + [0] * (768 - len(colours)))
+    images = [
+        Image.fromarray(f).convert("RGB").quantize(palette=palette, dither=Image.Dither.NONE)
+        for f in frames
+    ]
     images[0].save(
         path,
         save_all=True,
@@ -336,7 +348,7 @@ def _pictures(run: Stages) -> list[tuple[bytes, str]]:
                 run.filtered[0],
                 run.error_map,
                 detect[0],
-                f"frame 0; model fitted to the noisy frames: {fit['model']}",
+                f"frame 0; model fitted to the noisy frames: {fit['summary']}",
             ),
             "Figure 2 — filtered frame and error map. The observed frame; its clutter as "
             "estimated by the smoothed O(W) row Kalman filter (ScalarRowFilter) with the model "
