@@ -32,6 +32,7 @@ pub mod segment;
 pub mod stationary_start;
 pub mod steady_band;
 mod steady_blocks;
+pub mod template;
 pub mod vector_row_filter;
 pub mod vector_state;
 pub mod whitening;

@@ -27,6 +27,7 @@ use pyo3::prelude::*;
 
 mod branching;
 mod segment;
+mod template;
 
 pyo3::create_exception!(
     _core,
@@ -692,6 +693,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScalarRowFilter>()?;
     branching::register(m)?;
     segment::register(m)?;
+    template::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_map, m)?)?;
     m.add_function(wrap_pyfunction!(local_moments_into, m)?)?;

@@ -1,0 +1,7 @@
+"""Search-recurrent fragment tracking (SPEC §5, source [F]): correlation search of a template
+(:func:`match_template`) steered by a Kalman predictor (:class:`TemplateTracker`). See the
+method page *Template tracker*."""
+
+from .matching import match_template
+
+__all__ = ["match_template"]
