@@ -128,20 +128,26 @@ impl Plan {
         let shared = SharedLines(spectrum.values_mut().as_mut_ptr());
         let shared = &shared;
         for_each_index(rows.div_ceil(LINES_PER_TASK), parallel, |task| {
+            let r0 = task * LINES_PER_TASK;
+            let height = LINES_PER_TASK.min(rows - r0);
             let mut line = Scratch::zeros(pw);
-            let mut row_spectrum = ComplexScratch::zeros(nf);
-            let row_spectrum = row_spectrum.values_mut();
+            let mut spectra = ComplexScratch::zeros(height * nf);
+            let spectra = spectra.values_mut();
             let mut scratch = ComplexScratch::zeros(self.row_forward.get_scratch_len());
-            for r in task * LINES_PER_TASK..((task + 1) * LINES_PER_TASK).min(rows) {
+            for (k, row_spectrum) in spectra.chunks_mut(nf).enumerate() {
+                let r = r0 + k;
                 line[..cols].copy_from_slice(&a[r * cols..(r + 1) * cols]);
                 line[cols..].fill(0.0);
                 self.row_forward
                     .process_with_scratch(&mut line, row_spectrum, scratch.values_mut())
                     .expect("buffer lengths come from the plan");
-                for (f, &v) in row_spectrum.iter().enumerate() {
-                    // SAFETY: f·ph + r < nf·ph, the buffer's length; row r is written by this
-                    // task only, and nothing reads the buffer until the loop has ended.
-                    unsafe { *shared.0.add(f * ph + r) = v };
+            }
+            for f in 0..nf {
+                for k in 0..height {
+                    // SAFETY: f·ph + r0 + k < nf·ph, the buffer's length; rows r0..r0 + height
+                    // are written by this task only, and nothing reads the buffer until the
+                    // loop has ended.
+                    unsafe { *shared.0.add(f * ph + r0 + k) = spectra[k * nf + f] };
                 }
             }
         });
@@ -150,11 +156,12 @@ impl Plan {
             ph * LINES_PER_TASK,
             parallel,
             |_, block| {
-                let mut scratch =
-                    vec![C64::default(); self.column_forward.get_inplace_scratch_len()];
+                let len = self.column_forward.get_inplace_scratch_len();
+                let mut scratch = ComplexScratch::zeros(len);
                 for line in block.chunks_mut(ph) {
                     line[rows..].fill(C64::default());
-                    self.column_forward.process_with_scratch(line, &mut scratch);
+                    self.column_forward
+                        .process_with_scratch(line, scratch.values_mut());
                 }
             },
         );
@@ -168,15 +175,20 @@ impl Plan {
         let scale = 1.0 / (ph * pw) as f64;
         let mut out = Scratch::to_overwrite(oh * ow);
         for_each_chunk(&mut out, ow * LINES_PER_TASK, parallel, |task, block| {
-            let mut row_spectrum = ComplexScratch::zeros(nf);
-            let row_spectrum = row_spectrum.values_mut();
-            let mut line = Scratch::zeros(pw);
-            let mut scratch = ComplexScratch::zeros(self.row_inverse.get_scratch_len());
-            for (k, out_row) in block.chunks_mut(ow).enumerate() {
-                let r = task * LINES_PER_TASK + k;
-                for (f, v) in row_spectrum.iter_mut().enumerate() {
-                    *v = lines[f * ph + r];
+            let r0 = task * LINES_PER_TASK;
+            let height = block.len() / ow;
+            let mut spectra = ComplexScratch::to_overwrite(height * nf);
+            let spectra = spectra.values_mut();
+            for f in 0..nf {
+                let source = &lines[f * ph + r0..f * ph + r0 + height];
+                for (k, &v) in source.iter().enumerate() {
+                    spectra[k * nf + f] = v;
                 }
+            }
+            let mut line = Scratch::to_overwrite(pw);
+            let mut scratch = ComplexScratch::zeros(self.row_inverse.get_scratch_len());
+            let rows = spectra.chunks_mut(nf).zip(block.chunks_mut(ow));
+            for (row_spectrum, out_row) in rows {
                 // real up to rounding (Hermitian symmetry of a real array's spectrum)
                 row_spectrum[0].im = 0.0;
                 if pw % 2 == 0 {
@@ -196,13 +208,13 @@ impl Plan {
     /// The row transforms of the h × w array `t`, zero-padded to pw: h rows of nf values.
     fn row_spectra(&self, t: &[f64], (h, w): (usize, usize)) -> Vec<C64> {
         let mut spectra = vec![C64::default(); h * self.nf];
-        let mut line = vec![0.0; self.pw];
-        let mut scratch = self.row_forward.make_scratch_vec();
+        let mut line = Scratch::zeros(self.pw);
+        let mut scratch = ComplexScratch::zeros(self.row_forward.get_scratch_len());
         for (row, spectrum) in t.chunks(w).zip(spectra.chunks_mut(self.nf)) {
             line[..w].copy_from_slice(row);
             line[w..].fill(0.0);
             self.row_forward
-                .process_with_scratch(&mut line, spectrum, &mut scratch)
+                .process_with_scratch(&mut line, spectrum, scratch.values_mut())
                 .expect("buffer lengths come from the plan");
         }
         spectra
