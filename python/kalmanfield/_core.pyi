@@ -189,3 +189,33 @@ class BranchingTracker:
     def n_nodes(self) -> int: ...
     def state_bytes(self) -> bytes: ...
     def load_state(self, state: bytes) -> None: ...
+
+# ---- kalman: generic linear-Gaussian recursions (method page "Kalman filter bank")
+_Matrices = tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]
+
+def kalman_constant_velocity(
+    dt: float, q: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_constant_acceleration(
+    dt: float, q: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_singer(
+    dt: float, rho: float, sigma_a: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_markov_velocity(
+    dt: float, rho: float, sigma: float, ndim: int, measurement_std: float
+) -> _Matrices: ...
+def kalman_filter(
+    f: npt.NDArray[np.float64],
+    q: npt.NDArray[np.float64],
+    h: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    mean: npt.NDArray[np.float64],
+    cov: npt.NDArray[np.float64],
+    measurements: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

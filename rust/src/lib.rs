@@ -19,6 +19,7 @@ pub mod difference_gram;
 pub mod error;
 pub mod field_model;
 mod four_lanes;
+pub mod kalman;
 pub mod lag_products;
 pub mod local_moments;
 pub mod noise;

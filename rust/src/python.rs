@@ -26,6 +26,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 mod branching;
+mod kalman;
 mod segment;
 mod template;
 
@@ -692,6 +693,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyVectorRowFilter>()?;
     m.add_class::<PyScalarRowFilter>()?;
     branching::register(m)?;
+    kalman::register(m)?;
     segment::register(m)?;
     template::register(m)?;
     m.add_function(wrap_pyfunction!(wiener_bound, m)?)?;
