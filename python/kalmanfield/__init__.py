@@ -14,7 +14,7 @@ from .product_field import sample_product_field
 from .sample_correlation import sample_correlation
 from .scalar_row_filter import ScalarRowFilter
 from .segmentation import segment
-from .template import match_template
+from .template import TemplateTracker, TemplateUpdate, match_template
 from .vector_row_filter import VectorRowFilter
 from .wiener_bound import wiener_bound, wiener_error_map
 from .yule_walker import YuleWalkerModel, yule_walker
@@ -26,6 +26,8 @@ __all__ = [
     "FieldStream",
     "IdentifiedModel",
     "ScalarRowFilter",
+    "TemplateTracker",
+    "TemplateUpdate",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",

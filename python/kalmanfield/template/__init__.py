@@ -3,5 +3,6 @@
 method page *Template tracker*."""
 
 from .matching import match_template
+from .tracker import TemplateTracker, TemplateUpdate
 
-__all__ = ["match_template"]
+__all__ = ["TemplateTracker", "TemplateUpdate", "match_template"]

@@ -18,10 +18,12 @@ mod direct;
 mod fft;
 pub mod fragment;
 pub mod frame;
+mod gate;
 pub mod peak;
 pub mod region;
 pub mod surface;
 mod tasks;
+pub mod tracker;
 
 #[cfg(test)]
 mod tests;
@@ -31,6 +33,7 @@ pub use frame::{Frame, Window};
 pub use peak::{refine_peak, Peak};
 pub use region::Region;
 pub use surface::{match_template, Match, Method, Surface};
+pub use tracker::{Motion, Step, Target, TemplateTracker, TrackerConfig};
 
 /// Whether the CPU runs the AVX2 + FMA builds of the scan loops (decided once per process).
 /// The crate is built for baseline x86-64; those loops are `#[inline(always)]` functions

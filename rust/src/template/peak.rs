@@ -118,6 +118,52 @@ pub fn peak_at(
     }
 }
 
+/// Points per axis of the subsample whose median and MAD measure a surface's spread.
+pub const SPREAD_SAMPLES: usize = 64;
+
+/// How far `score` stands out of a rows × cols surface: (score − median) / (1.4826·MAD), the
+/// median and the median absolute deviation taken over the non-NaN entries at rows
+/// k·⌊rows/64⌋ and columns l·⌊cols/64⌋ (k, l < 64). +∞ when MAD = 0 and score > median, 0
+/// when MAD = 0 otherwise or no entry is usable.
+pub fn distinctness(surface: &[f64], (rows, cols): (usize, usize), score: f64) -> f64 {
+    let step = |n: usize| (n / SPREAD_SAMPLES).max(1);
+    let mut sample: Vec<f64> = (0..rows)
+        .step_by(step(rows))
+        .take(SPREAD_SAMPLES)
+        .flat_map(|r| {
+            (0..cols)
+                .step_by(step(cols))
+                .take(SPREAD_SAMPLES)
+                .map(move |c| surface[r * cols + c])
+        })
+        .filter(|v| !v.is_nan())
+        .collect();
+    if sample.is_empty() {
+        return 0.0;
+    }
+    let centre = median(&mut sample);
+    let mut deviations: Vec<f64> = sample.iter().map(|v| (v - centre).abs()).collect();
+    let mad = median(&mut deviations);
+    if mad > 0.0 {
+        (score - centre) / (1.4826 * mad)
+    } else if score > centre {
+        f64::INFINITY
+    } else {
+        0.0
+    }
+}
+
+/// The median (mean of the two middle values for an even count) of non-empty `v`.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

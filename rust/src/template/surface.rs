@@ -114,13 +114,13 @@ pub(crate) fn use_fft(rows: usize, cols: usize, h: usize, w: usize) -> bool {
 
 /// The correlation sums of one region with any number of same-region templates; the region's
 /// spectrum is computed once, on the first template that takes the FFT route.
-pub(crate) struct Correlator<'a> {
+pub struct Correlator<'a> {
     region: &'a Region,
     spectrum: Option<(Arc<Plan>, ComplexScratch)>,
 }
 
 impl<'a> Correlator<'a> {
-    pub(crate) fn new(region: &'a Region) -> Self {
+    pub fn new(region: &'a Region) -> Self {
         Self {
             region,
             spectrum: None,
@@ -150,7 +150,7 @@ impl<'a> Correlator<'a> {
     }
 
     /// The surface of `template` (the region must hold it).
-    pub(crate) fn surface(&mut self, template: &Template, method: Method) -> Result<Surface> {
+    pub fn surface(&mut self, template: &Template, method: Method) -> Result<Surface> {
         let (h, w) = (template.h, template.w);
         let region = self.region;
         if h > region.rows || w > region.cols {

@@ -2,5 +2,14 @@
 (:mod:`.matching`) and the search-recurrent tracker (:mod:`.tracker`)."""
 
 from .matching import match_template, refine_peak, shift, surface
+from .tracker import TwinTracker, distinctness, motion_model
 
-__all__ = ["match_template", "refine_peak", "shift", "surface"]
+__all__ = [
+    "TwinTracker",
+    "distinctness",
+    "match_template",
+    "motion_model",
+    "refine_peak",
+    "shift",
+    "surface",
+]
