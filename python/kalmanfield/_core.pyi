@@ -219,3 +219,40 @@ def kalman_filter(
     cov: npt.NDArray[np.float64],
     measurements: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+# ---- template: correlation search and the search-recurrent tracker (method page "Template tracker")
+def match_template(
+    frame: _Pixels,
+    template: npt.NDArray[np.float64],
+    window: tuple[int, int, int, int] | None,
+    method: str,
+    subpixel: bool,
+    return_surface: bool,
+) -> tuple[float, float, float, npt.NDArray[np.float64] | None]: ...
+@final
+class TemplateTracker:
+    def __new__(
+        cls,
+        templates: list[npt.NDArray[np.float64]],
+        positions: list[tuple[float, float]],
+        model: str,
+        process_std: float,
+        measurement_std: float,
+        dt: float,
+        gate: float,
+        initial_std: list[float],
+        collapse: float,
+        reacquire_z: float | None,
+        update_template: float | None,
+        subpixel: bool,
+    ) -> TemplateTracker: ...
+    def update(self, frame: _Pixels) -> dict[str, np.ndarray]: ...
+    def state_values(self) -> npt.NDArray[np.float64]: ...
+    def load_state(self, values: npt.NDArray[np.float64]) -> None: ...
+    def templates(self) -> list[npt.NDArray[np.float64]]: ...
+    def states(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def model_matrices(self) -> list[npt.NDArray[np.float64]]: ...
+    @property
+    def frames(self) -> int: ...
+    @property
+    def n_targets(self) -> int: ...

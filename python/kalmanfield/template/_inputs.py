@@ -29,7 +29,7 @@ def pixel_dtype(dtype: np.dtype) -> np.dtype:
 def frame_array(frame: npt.ArrayLike, name: str = "frame") -> np.ndarray:
     """`frame` as a 2-D C-contiguous array of a kernel dtype (no copy when it already is)."""
     if isinstance(frame, np.ma.MaskedArray):
-        frame = frame.astype(np.float64).filled(np.nan)
+        frame = np.ma.filled(frame.astype(np.float64), np.nan)
     arr = np.asarray(frame)
     target = pixel_dtype(arr.dtype)
     if arr.ndim != 2:

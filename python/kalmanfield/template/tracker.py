@@ -287,7 +287,7 @@ class TemplateTracker:
             steps = result if isinstance(result, list) else [result]
             for k, s in enumerate(steps):
                 x0, y0, x1, y1 = s.window if s.window is not None else (0, 0, 0, 0)
-                row = {"frame": number}
+                row: dict[str, Any] = {"frame": number}
                 if self._multi:
                     row["particle"] = k
                 row.update(

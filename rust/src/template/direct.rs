@@ -73,8 +73,8 @@ fn output_row<const FUSED: bool>(lines: &Lines<'_>, row: &mut [f64]) {
         row[x0..x0 + 4].copy_from_slice(&strip::<FUSED, 4>(lines, x0));
         x0 += 4;
     }
-    for x in x0..row.len() {
-        row[x] = strip::<FUSED, 1>(lines, x)[0];
+    for (x, out) in row.iter_mut().enumerate().skip(x0) {
+        *out = strip::<FUSED, 1>(lines, x)[0];
     }
 }
 

@@ -81,7 +81,8 @@ pub(crate) fn fast_len(n: usize, even: bool) -> usize {
 
 /// The plan of a ph × pw transform (built once per size and process).
 pub(crate) fn plan(ph: usize, pw: usize) -> Arc<Plan> {
-    static PLANS: OnceLock<Mutex<HashMap<(usize, usize), Arc<Plan>>>> = OnceLock::new();
+    type Plans = HashMap<(usize, usize), Arc<Plan>>;
+    static PLANS: OnceLock<Mutex<Plans>> = OnceLock::new();
     let mut plans = PLANS
         .get_or_init(Default::default)
         .lock()

@@ -111,7 +111,7 @@ impl Region {
 fn shifted_row<T: Pixel>(line: &[T], shift: f64, out: &mut [f64]) -> (f64, bool) {
     const LANES: usize = 8;
     let mut spread = [0.0f64; LANES];
-    // d − d is 0 for finite d and NaN otherwise; NaN stays NaN in the sum
+    // 0·d is 0 for finite d and NaN otherwise; NaN stays NaN in the sum
     let mut non_finite = [0.0f64; LANES];
     let mut step = |o: &mut f64, p: T, k: usize| {
         let d = Into::<f64>::into(p) - shift;
@@ -121,7 +121,7 @@ fn shifted_row<T: Pixel>(line: &[T], shift: f64, out: &mut [f64]) -> (f64, bool)
         } else {
             spread[k]
         };
-        non_finite[k] += d - d;
+        non_finite[k] += 0.0 * d;
     };
     let mut outs = out.chunks_exact_mut(LANES);
     let mut pixels = line.chunks_exact(LANES);
