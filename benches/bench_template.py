@@ -272,7 +272,10 @@ def accuracy(runs: int, n: int) -> tuple[list[str], dict]:
                     found = method(frames, obj, truth[0])
                     err = np.hypot(*(found[1:] - truth[1:]).T)
                     bad, total = counts.get((kind, snr, name), (0, 0))
-                    counts[(kind, snr, name)] = (bad + int((err > OBJECT / 2).sum()), total + len(err))
+                    counts[(kind, snr, name)] = (
+                        bad + int((err > OBJECT / 2).sum()),
+                        total + len(err),
+                    )
     return list(methods), counts
 
 

@@ -220,7 +220,7 @@ def kalman_filter(
     measurements: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
-# ---- template: correlation search and the search-recurrent tracker (method page "Template tracker")
+# ---- template: correlation search, search-recurrent tracker (method page "Template tracker")
 def match_template(
     frame: _Pixels,
     template: npt.NDArray[np.float64],
@@ -229,6 +229,7 @@ def match_template(
     subpixel: bool,
     return_surface: bool,
 ) -> tuple[float, float, float, npt.NDArray[np.float64] | None]: ...
+
 @final
 class TemplateTracker:
     def __new__(

@@ -4,9 +4,7 @@ import numpy as np
 import pytest
 
 
-def moving_scene(
-    n=40, seed=0, shape=(60, 80), size=(9, 11), snr=1.5, path=None, background=0.3
-):
+def moving_scene(n=40, seed=0, shape=(60, 80), size=(9, 11), snr=1.5, path=None, background=0.3):
     """(frames, template, true top-left positions): the template added at the rounded
     position of `path(k)` (skipped while it does not fit), over a fixed background of std
     `background` plus white noise of std 1/snr per frame."""

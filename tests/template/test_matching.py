@@ -116,6 +116,20 @@ def test_nan_pixels_are_missing():
         match_template(frame, template)
 
 
+def test_masked_pixels_are_missing_and_docstring_example():
+    rng = np.random.default_rng(4)
+    frame = np.ma.masked_array(rng.standard_normal((30, 30)), mask=False)
+    frame.mask[10, 10] = True
+    template = frame.data[2:8, 20:27].copy()
+    s = match_template(frame, template, return_surface=True)[3]
+    assert np.isnan(s[5:11, 4:11]).all() and np.isfinite(s[:5]).all()
+    import doctest
+
+    import kalmanfield.template.matching as matching
+
+    assert doctest.testmod(matching).failed == 0
+
+
 def test_refinement_equals_twin_at_borders_and_nan():
     rng = np.random.default_rng(9)
     for _ in range(30):

@@ -33,7 +33,11 @@ def test_rust_equals_twin(scene, settings):
         s, t = rust.update(frame), twin.update(frame)[0]
         np.testing.assert_allclose(s.state, t["mean"], rtol=0, atol=1e-9)
         np.testing.assert_allclose(s.covariance, t["cov"], rtol=1e-12, atol=1e-12)
-        assert (s.collapsed, s.reacquired, s.window) == (t["collapsed"], t["reacquired"], t["window"])
+        assert (s.collapsed, s.reacquired, s.window) == (
+            t["collapsed"],
+            t["reacquired"],
+            t["window"],
+        )
         assert s.score == pytest.approx(t["score"], abs=1e-10, nan_ok=True)
         flags.append(s.collapsed)
     assert any(flags) and not all(flags)  # both branches ran
@@ -44,9 +48,8 @@ def test_kalman_link_equals_filterpy(scene):
     filterpy = pytest.importorskip("filterpy.kalman")
     frames, template, truth = scene(path=_leave_and_return)
     tracker = TemplateTracker(template, truth[0], process_std=0.05, measurement_std=0.5)
-    f, q, h, r = tracker.model_matrices() if tracker.frame else (None,) * 4
     kf = None
-    for k, frame in enumerate(frames):
+    for frame in frames:
         s = tracker.update(frame)
         if kf is None:
             f, q, h, r = tracker.model_matrices()
@@ -88,7 +91,9 @@ def test_reacquisition_after_the_target_leaves_and_reenters(scene):
 
 def test_window_grows_while_coasting(scene):
     frames, template, truth = scene(n=30, path=lambda k: (30.0, 20.0), snr=4.0)
-    blank = [f * 0 + np.random.default_rng(k).standard_normal(f.shape) for k, f in enumerate(frames)]
+    blank = [
+        f * 0 + np.random.default_rng(k).standard_normal(f.shape) for k, f in enumerate(frames)
+    ]
     tracker = TemplateTracker(template, truth[0], process_std=0.05, measurement_std=0.5)
     track = tracker.track(frames[:10] + blank[:8])
     coasted = track[track.coasted]
@@ -106,7 +111,10 @@ def test_several_templates_equal_separate_trackers(scene):
         f[40:47, 60 - k % 5 : 67 - k % 5] += t2
     settings = dict(process_std=0.05, measurement_std=0.5, update_template=0.1)
     multi = TemplateTracker([t1, t2], [truth1[0], (60, 40)], **settings)
-    singles = [TemplateTracker(t1, truth1[0], **settings), TemplateTracker(t2, (60, 40), **settings)]
+    singles = [
+        TemplateTracker(t1, truth1[0], **settings),
+        TemplateTracker(t2, (60, 40), **settings),
+    ]
     table = multi.track(frames)
     assert list(table.columns[:2]) == ["frame", "particle"]
     for p, single in enumerate(singles):
@@ -212,3 +220,11 @@ class TestBadInput:
         assert pickle.dumps(tracker) == before
         with pytest.raises(ValueError, match="does not fit"):
             tracker._core.load_state(np.zeros(3))
+
+
+def test_docstring_example():
+    import doctest
+
+    import kalmanfield.template.tracker as tracker
+
+    assert doctest.testmod(tracker).failed == 0

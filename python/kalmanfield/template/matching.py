@@ -98,8 +98,8 @@ def match_template(
     >>> from kalmanfield import match_template
     >>> frame = np.random.default_rng(0).standard_normal((64, 64))
     >>> x, y, score = match_template(frame, frame[20:30, 5:17])
-    >>> (x, y), round(score, 6)
-    ((5.0, 20.0), 1.0)
+    >>> (round(x), round(y)), round(score, 6)
+    ((5, 20), 1.0)
     """
     image = frame_array(frame)
     kernel = template_array(template, image.dtype)
