@@ -17,7 +17,8 @@ Throughput is in Mpixel/s; "× floor" is the best time divided by the best time 
 floor of the same grid and dtype, measured in the same run.
 
 Run: ``python benches/bench_field.py [--quick]`` (``--quick``: 2048² only, fewer repeats).
-The Markdown report is printed and written to ``bench_out/bench_field.md``.
+The Markdown report is printed and written to the benchmark page ``docs/benchmarks/field.md``
+(``--quick``: to ``bench_out/field.md``).
 """
 
 from __future__ import annotations
@@ -25,16 +26,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from math import comb
-from pathlib import Path
 
 import numpy as np
+from bench_page import write_page
 from scipy import signal
 
 import kalmanfield as kf
@@ -42,7 +42,6 @@ import kalmanfield as kf
 RHO = 0.9
 ORDERS = (2, 4)
 DTYPES: tuple[type[np.floating], ...] = (np.float64, np.float32)
-OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_field.md"
 
 
 @dataclass(frozen=True)
@@ -100,22 +99,6 @@ def best_of(fn: Callable[[], object], repeats: int) -> float:
         fn()
         best = min(best, time.perf_counter() - start)
     return best
-
-
-def machine_info() -> list[str]:
-    """CPU model, core count and library versions, as Markdown list items."""
-    cpu = platform.processor()
-    try:
-        with open("/proc/cpuinfo") as f:
-            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
-        cpu = names[0] if names else cpu
-    except OSError:
-        pass
-    return [
-        f"- CPU: {cpu or 'unknown'}, os.cpu_count() = {os.cpu_count()}",
-        f"- Python {platform.python_version()}, NumPy {np.__version__}, "
-        f"kalmanfield {kf.__version__}",
-    ]
 
 
 def threads_label(threads: int | None) -> str:
@@ -386,7 +369,7 @@ def run(cfg: Config) -> str:
     if isinstance(gs, Row):
         rows.append(gs)
     stream_floor = numpy_floor(1024, np.float64, 5)
-    lines = ["## kalmanfield field-generation benchmark", "", *machine_info(), ""]
+    lines = ["## Generation speed", ""]
     lines += markdown_table(rows) + [""] + notes(cfg, gstools_note) + [""]
     lines += memory_section(cfg.memory_size) + [""]
     lines += stream_section(cfg.stream_frames, cfg.stream_blocks, stream_floor)
@@ -401,9 +384,8 @@ def main() -> None:
     start = time.perf_counter()
     report = run(make_config(args.quick))
     print(report)
-    OUT_PATH.parent.mkdir(exist_ok=True)
-    OUT_PATH.write_text(report, encoding="utf-8")
-    print(f"(written to {OUT_PATH}, total {time.perf_counter() - start:.0f} s)")
+    write_page("field", "Benchmark: field generation", report, full_run=not args.quick)
+    print(f"(total {time.perf_counter() - start:.0f} s)")
 
 
 if __name__ == "__main__":

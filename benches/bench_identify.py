@@ -1,44 +1,44 @@
-"""Benchmark of ``kf.identify`` (SPEC §1.6): accuracy on simulated fields, real images, speed.
+"""Benchmark of ``kf.identify`` (method page *Identification*, §1.6): accuracy on simulated fields,
+real images, speed.
 
 1. Accuracy: fields of ``ARFieldModel([ρ, ρ], [n, n])`` on a 256² grid, n = 1..4,
    ρ ∈ {0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98}; both axes of every field are scored. Reported:
    the rate of correct multiplicity, the confusion of n for ρ ≥ 0.8, and the relative bias
-   and RMSE of ρ̂ — for ``identify`` and for the source's route (SPEC §1.6 (2)): a 1-D
+   and RMSE of ρ̂ — for ``identify`` and for the source's route (§1.6 (2)): a 1-D
    Yule–Walker AR(n) fit on the pooled axis autocovariance, given the true n, and
    ρ = α_1 / n (the i = 1 term of ρ = (α_i / ((-1)^{i+1} C(n,i)))^{1/i}; the higher terms
    are even less stable).
 2. Real images (scikit-image, if installed): the identified model and its time.
 3. Speed: ``identify`` on a 2048² (2,3) field, one thread and all cores; the FFT
    ``sample_correlation`` (lags ±16) and a plain-NumPy implementation of the same statistics
-   (``kalmanfield.reference.identification``) on the same image.
+   (``kalmanfield.reference.identification.kernels``) on the same image.
 
 Run: ``python benches/bench_identify.py [--quick]``; the Markdown report is printed and
-written to ``bench_out/bench_identify.md``.
+written to the benchmark page ``docs/benchmarks/identification.md`` (``--quick``: to
+``bench_out/identification.md``).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
+from bench_page import write_page
 
 import kalmanfield as kf
 from kalmanfield import _core
-from kalmanfield.reference import identification as ref
+from kalmanfield.reference.identification import kernels as ref
 
 RHOS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98)
 ORDERS = (1, 2, 3, 4)
 SIZE = 256
-OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_identify.md"
 
 
 def source_rho(field: np.ndarray, axis: int, n: int) -> float:
-    """ρ from the fitted AR(n) coefficients, the source's route (SPEC §1.6 (2))."""
+    """ρ from the fitted AR(n) coefficients, the source's route (§1.6 (2))."""
     sums, counts = _core.lag_products(field - field.mean(), axis, n)
     c = sums / counts
     toeplitz = np.array([[c[abs(i - j)] for j in range(n)] for i in range(n)])
@@ -167,16 +167,13 @@ def main() -> None:
     reps = 4 if args.quick else 25
     report = "\n\n".join(
         [
-            f"## identify benchmark ({platform.processor() or platform.machine()}, "
-            f"{os.cpu_count()} cores, Python {platform.python_version()})",
             accuracy(reps),
             real_images(),
             speed(1 if args.quick else 5),
         ]
     )
     print(report)
-    OUT_PATH.parent.mkdir(exist_ok=True)
-    OUT_PATH.write_text(report + "\n")
+    write_page("identification", "Benchmark: identification", report, full_run=not args.quick)
 
 
 if __name__ == "__main__":

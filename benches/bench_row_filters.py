@@ -1,16 +1,17 @@
-"""Benchmark of the row Kalman filters (SPEC §2): exact losses, speed, real-image denoising.
+"""Benchmark of the row Kalman filters (method page *Row filters*, §2): exact losses, speed,
+real-image denoising.
 
 1. Loss table — exact mean MSEs, no Monte Carlo, on an H = W grid (48², ``--quick``: 32² and
    fewer cases) for (n_y, n_x) ∈ {(1,1), (2,2), (3,3), (4,4), (1,2), (2,1)},
    ρ_y = ρ_x ∈ {0.5, 0.8, 0.9, 0.95}, σ_x²/σ_θ² ∈ {0.1, 1, 10} (σ_x = 1):
-   - optimal causal: ``VectorRowFilter.error_variance(H).mean()`` (SPEC §2.1–2.2);
-   - scalar causal / smoothed: ``ScalarRowFilter`` (SPEC §2.3 generalised), exact MSE from
+   - optimal causal: ``VectorRowFilter.error_variance(H).mean()`` (§2.1–2.2);
+   - scalar causal / smoothed: ``ScalarRowFilter`` (§2.3 generalised), exact MSE from
      the filter run on the H·W orthonormal eigen-images of Cov(x) (white noise shares that
      basis); cross-checked in every run against ``reference.row_filters.linear_estimator_mse``
      (the filter run on 2·H·W basis images);
    - loss % = scalar causal / optimal causal − 1 (target ≤ 3 %);
    - gap % = scalar smoothed / ``wiener_bound`` − 1 (target ≤ 5 %);
-   - for (1,1): SPEC §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
+   - for (1,1): §2.3's literal scheme, ``ScalarRowFilter(..., ar_order=1)``, causal.
 2. Speed, one thread unless stated, best of 3 (``time.perf_counter``), the per-height plan
    built by a warm-up call and not timed: ``ScalarRowFilter`` on 2048² for (1,1), (2,2),
    (3,3), (4,4), causal and smoothed, and for every (n_y, n_x) ≤ (4, 4); the NumPy
@@ -28,9 +29,10 @@
    common denoisers (BM3D if the ``bm3d`` package is installed).
 
 Run: ``python benches/bench_row_filters.py [--quick] [--sections loss speed images] [--rhos ...]
-[--ratios ...]``; the Markdown report is printed and written to ``bench_out/bench_row_filters.md``.
-The README's high-SNR table: ``--sections loss --rhos 0.8 0.9 0.95 0.99 --ratios 100 1000
-10000``.
+[--ratios ...]``; the Markdown report is printed, and a full run (every section, the default
+grid) writes the benchmark page ``docs/benchmarks/row_filters.md`` (other runs:
+``bench_out/row_filters.md``). The high-SNR table of that page: ``--sections loss --rhos 0.8
+0.9 0.95 0.99 --ratios 100 1000 10000``.
 """
 
 from __future__ import annotations
@@ -40,17 +42,16 @@ import importlib
 import importlib.util
 import multiprocessing
 import os
-import platform
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
+from bench_page import write_page
 
 import kalmanfield as kf
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 ORDERS = ((1, 1), (2, 2), (3, 3), (4, 4), (1, 2), (2, 1))
 RHOS = (0.5, 0.8, 0.9, 0.95)
@@ -59,7 +60,6 @@ LOSS_TARGET, GAP_TARGET = 3.0, 5.0
 SPEED_RHO = 0.9
 EXACT_CHUNK = 512
 NOISE_SIGMA = 0.1
-OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_row_filters.md"
 
 
 @dataclass(frozen=True)
@@ -131,21 +131,6 @@ def once(fn: Callable[[], object]) -> tuple[float, object]:
     start = time.perf_counter()
     out = fn()
     return time.perf_counter() - start, out
-
-
-def machine_line() -> str:
-    """CPU, cores and versions."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
-        cpu = names[0] if names else cpu
-    except OSError:
-        pass
-    return (
-        f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"NumPy {np.__version__}, kalmanfield {kf.__version__}"
-    )
 
 
 def model_of(order: tuple[int, int], rho: float) -> kf.ARFieldModel:
@@ -263,7 +248,7 @@ def loss_summary(results: list[dict]) -> list[str]:
         f"{worst(results, 'loss', LOSS_TARGET)}",
         f"- max smoothed gap (scalar smoothed vs Wiener bound): "
         f"{worst(results, 'gap', GAP_TARGET)}",
-        f"- max loss of SPEC §2.3's literal scheme ((1,1) only): "
+        f"- max loss of the source's literal scheme (§2.3, (1,1) only): "
         f"{worst(results, 'literal_loss', None)}",
         f"- `ScalarRowFilter.error_variance` (causal) against the optimal filter's map, "
         f"pixel by pixel: largest |ratio − 1| {max(r['map_gap'] for r in results):.2f} %; "
@@ -655,7 +640,7 @@ def nl_means(z: np.ndarray) -> np.ndarray:
     return denoise_nl_means(z, h=0.8 * s, sigma=s, fast_mode=True, patch_size=5, patch_distance=6)
 
 
-KF_KEYS = ("kf", "kf_stationary", "kf_noise", "kf_vector")
+KF_KEYS = ("kf", "kf_adaptive", "kf_stationary", "kf_noise", "kf_vector")
 
 
 def denoisers() -> dict[str, tuple[str, Callable[[np.ndarray], np.ndarray]]]:
@@ -666,10 +651,14 @@ def denoisers() -> dict[str, tuple[str, Callable[[np.ndarray], np.ndarray]]]:
     s = NOISE_SIGMA
     return {
         "noisy": ("noisy input", lambda z: z),
-        "kf": ("`kf.denoise(z)` (adaptive, all estimated)", kf.denoise),
+        "kf": ("`kf.denoise(z)` (all estimated, the filter chosen by SURE)", kf.denoise),
+        "kf_adaptive": (
+            '`kf.denoise(z, method="adaptive")`',
+            lambda z: kf.denoise(z, method="adaptive"),
+        ),
         "kf_stationary": (
-            "`kf.denoise(z, adaptive=False)` (one stationary model)",
-            lambda z: kf.denoise(z, adaptive=False),
+            '`kf.denoise(z, method="stationary")` (one stationary model)',
+            lambda z: kf.denoise(z, method="stationary"),
         ),
         "kf_noise": ("`kf.denoise(z, noise_var=σ²)`", lambda z: kf.denoise(z, noise_var=s**2)),
         "kf_vector": (
@@ -808,21 +797,18 @@ def main() -> None:
         nargs="+",
         type=float,
         help="σ_x²/σ_θ² of the loss table (default 0.1 1 10, the issue's grid; e.g. 100 1000 "
-        "10000 for the high-SNR table of the README)",
+        "10000 for the high-SNR table of the benchmark page)",
     )
     args = parser.parse_args()
     cfg = make_config(args.quick)
     cfg = replace(cfg, rhos=tuple(args.rhos or cfg.rhos), ratios=tuple(args.ratios or cfg.ratios))
     start = time.perf_counter()
     sections = [SECTIONS[name](cfg) for name in args.sections]
-    report = "\n\n".join(
-        [f"## Row-filter benchmark{' (--quick)' if args.quick else ''}", f"- {machine_line()}"]
-        + sections
-    )
+    report = "\n\n".join(sections)
     report += f"\n\nTotal run time: {time.perf_counter() - start:.0f} s.\n"
     print(report)
-    OUT_PATH.parent.mkdir(exist_ok=True)
-    OUT_PATH.write_text(report, encoding="utf-8")
+    full_run = not (args.quick or args.rhos or args.ratios) and args.sections == list(SECTIONS)
+    write_page("row_filters", "Benchmark: row filters and denoising", report, full_run=full_run)
 
 
 SECTIONS = {"loss": loss_section, "speed": speed_section, "images": images_section}

@@ -1,4 +1,4 @@
-"""Speed of ``kalmanfield.segment`` (SPEC §3) on tracker-benchmark frames.
+"""Speed of ``kalmanfield.segment`` (method page *Tracking*, §3) on tracker-benchmark frames.
 
 Frames: the scenario of ``tracking_scenario.py`` scaled to 512 × 512 px (50 targets, 200
 clutter points, ~245 detections per frame), rendered by ``tracking_frames.render`` as float32
@@ -19,14 +19,13 @@ Time: wall-clock per frame, best of ``--repeats`` passes over the frames (the ma
 shared). The segment counts and the centroids of the methods are cross-checked (outside
 the timed loop).
 
-Run: ``python benches/bench_segment.py [--frames 50] [--repeats 3]``; prints a Markdown table.
+Run: ``python benches/bench_segment.py [--frames 50] [--repeats 3]``; prints a Markdown table and
+writes it to the benchmark page ``docs/benchmarks/segment.md``.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
 from collections.abc import Callable
@@ -37,6 +36,7 @@ import pandas as pd
 from scipy import ndimage
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_page import write_page  # noqa: E402
 from tracking_frames import render  # noqa: E402
 from tracking_scenario import make_scenario  # noqa: E402
 
@@ -118,16 +118,6 @@ def methods() -> dict[str, Callable]:
     return found
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=50)
@@ -140,8 +130,6 @@ def main() -> None:
     lines = [
         f"Segmentation of {len(images)} float32 {SIZE}×{SIZE} frames, ~{n_segments:.0f} "
         f"segments/frame (threshold {THRESHOLD:g}, 8-connectivity); best of {args.repeats}.",
-        f"Machine: {platform.platform()}, {cpu_name()}, {os.cpu_count()} CPUs; "
-        f"Python {platform.python_version()}, NumPy {np.__version__}.",
         "",
         "| method | ms/frame | frames/s |",
         "|---|---:|---:|",
@@ -154,6 +142,7 @@ def main() -> None:
         t = seconds_per_frame(method, images, args.repeats)
         lines.append(f"| {name} | {1e3 * t:.3f} | {1 / t:,.0f} |")
     print("\n".join(lines))
+    write_page("segment", "Benchmark: segmentation", "\n".join(lines), full_run=args.frames >= 50)
 
 
 if __name__ == "__main__":

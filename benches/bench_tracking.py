@@ -1,9 +1,10 @@
-"""Anchor comparison of the branching tracker (SPEC §3.3) on the point-target scenario.
+"""Anchor comparison of the branching tracker (method page *Tracking*, §3.3) on the point-target
+scenario.
 
 Trackers, each on the same seeded scenarios of ``tracking_scenario.py``:
 
 1. ``kalmanfield.BranchingTracker`` when the Rust class exists, otherwise the NumPy reference
-   ``kalmanfield.reference.branching.BranchingTracker`` (same keywords, ``TRACKER_CONFIG``);
+   ``kalmanfield.reference.tracking.branching.BranchingTracker`` (same ``TRACKER_CONFIG``);
    scored on the estimated positions of ``tracks()``, coasted frames included;
 2. trackpy ``link`` (+ ``filter_stubs``) on the detections, if trackpy is installed;
 3. Stone Soup GNN (``GNNWith2DAssignment``) and JPDA (``JPDAwithEHM``, exact JPDA with efficient
@@ -23,13 +24,13 @@ hypotheses per frame and time per frame.
 
 Run: ``python benches/bench_tracking.py [--seeds 1 2] [--quick] [--jpda] [--stress] [--scale]``
 (``--quick``: one seed; ``--jpda``: also Stone Soup JPDA, ~45 s CPU per seed here). The
-Markdown report is printed and written to ``bench_out/bench_tracking.md``.
+Markdown report is printed and written to the benchmark page ``docs/benchmarks/tracking.md``
+(``--quick`` or ``--no-anchors``: to ``bench_out/tracking.md``).
 """
 
 from __future__ import annotations
 
 import argparse
-import platform
 import sys
 import time
 import warnings
@@ -40,11 +41,11 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_page import write_page  # noqa: E402
 from tracking_scenario import Scenario, make_scenario  # noqa: E402
 
 import kalmanfield as kf  # noqa: E402
 
-OUT_PATH = Path(__file__).resolve().parent.parent / "bench_out" / "bench_tracking.md"
 MATCH_PX = 3.0
 
 #: configuration of the branching tracker for the anchor scenario (keywords of the reference)
@@ -92,7 +93,7 @@ def tracker_class():
     """(class, label): the Rust tracker if built, else the NumPy reference."""
     if hasattr(kf, "BranchingTracker"):
         return kf.BranchingTracker, "kalmanfield.BranchingTracker"
-    from kalmanfield.reference.branching import BranchingTracker
+    from kalmanfield.reference.tracking.branching import BranchingTracker
 
     return BranchingTracker, "reference BranchingTracker (NumPy)"
 
@@ -265,7 +266,7 @@ def main(argv=None) -> str:
     seeds = args.seeds[:1] if args.quick else args.seeds
     _, label = tracker_class()
 
-    lines = ["# Branching tracker vs anchors (point-target scenario)", ""]
+    lines = ["## Point-target scenario", ""]
     cfg0 = make_scenario(seeds[0]).config
     lines += [
         f"Scenario (`benches/tracking_scenario.py`): {cfg0.n_frames} frames of "
@@ -275,8 +276,7 @@ def main(argv=None) -> str:
         f"clutter points/frame. Scored with py-motmetrics, {MATCH_PX:.0f}-px match threshold, "
         "against the true positions in every frame.",
         "",
-        f"Machine: {platform.machine()}, Python {platform.python_version()}, "
-        f"{platform.processor() or 'unknown CPU'}; CPU seconds of the tracker alone.",
+        "CPU seconds of the tracker alone.",
         f"Branching tracker: {label}, config `{TRACKER_CONFIG}`.",
         "",
         HEADER,
@@ -333,10 +333,10 @@ def main(argv=None) -> str:
             lines.append(row)
 
     text = "\n".join(lines) + "\n"
-    OUT_PATH.parent.mkdir(parents=True, exist_ok=True)
-    OUT_PATH.write_text(text)
     print()
     print(text)
+    title = "Benchmark: tracking against trackpy and Stone Soup"
+    write_page("tracking", title, text, full_run=not (args.quick or args.no_anchors))
     return text
 
 

@@ -1,7 +1,8 @@
 """Study (not a library kernel): fit the band to the *filtered* covariance and predict exactly,
-the lead for the quasi-optimal filter's losses at high SNR (README, "High SNR").
+the lead for the quasi-optimal filter's losses at high SNR (benchmark page *Row filters*,
+"High SNR").
 
-The quasi-optimal filter (SPEC §2.3 generalised) fits a block AR(m) along the row (a banded
+The quasi-optimal filter (§2.3 generalised) fits a block AR(m) along the row (a banded
 precision, the maximum-entropy completion of the band) to the prediction error P_e,t of the n_y
 rows in its state. At high SNR P_e,t = S P_f,t−1 Sᵀ + Q is the sum of a smooth part (the
 innovation Q, whose precision is banded) and a near-white part (the filtered error of the row
@@ -21,10 +22,11 @@ differs on rows < n_y − 1, which are left out) and fit every row to the optima
 covariance (no settling rule). Each one's exact error covariance is propagated,
 E_t = G_t (S E_t−1 Sᵀ + Q) G_tᵀ + σ_θ⁻² K_t Hᵀ H K_t, G_t = K_t Λ_t, K_t = (Λ_t + HᵀH/σ_θ²)⁻¹,
 and the loss is the mean MSE of the newest row over rows n_y … H − 1 against the optimal
-filter's. The ``Pe-band`` column is the library's model (its causal loss on the same grid,
-in the README's high-SNR table, is within rounding of it where the settling rule does not
-bind). Dense NumPy, so (3,3) stops at ρ = 0.95 and (4,4) at 0.9 (beyond, these float64
-inverses break down). Run: ``python benches/study_filtered_band.py`` (~1 min on the 2-vCPU VM).
+filter's. The ``Pe-band`` column is the library's model (its causal loss on the same grid, in
+the high-SNR table of the benchmark page *Row filters*, is within rounding of it where the
+settling rule does not bind). Dense NumPy, so (3,3) stops at ρ = 0.95 and (4,4) at 0.9
+(beyond, these float64 inverses break down). Run: ``python benches/study_filtered_band.py``
+(~1 min on the 2-vCPU VM).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ import itertools
 
 import numpy as np
 
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 SIZE = 48
 CASES = {

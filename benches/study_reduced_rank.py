@@ -1,7 +1,7 @@
 """Study (not a library kernel): a rank-r error model per column for the quasi-optimal row
-filter, the lead for the wide-band speed targets of issue 4 (README, "Speed target").
+filter, the lead for the wide-band speed targets of issue 4 (design notes, *Row filters: speed*).
 
-The quasi-optimal filter (SPEC §2.3 generalised) models the prediction error of all n_y rows
+The quasi-optimal filter (§2.3 generalised) models the prediction error of all n_y rows
 of each column's state; its row system has n_y unknowns per column and half-bandwidth
 b = n_y(m+1) − 1 (11 for (3,3), 19 for (4,4)), so the solves cost ~2·b·n_y multiply-adds per
 pixel. The optimal corrections P_e,j e₀ of the modes j span few directions of the n_y-row
@@ -44,7 +44,7 @@ from scipy import sparse
 from scipy.sparse.linalg import splu
 
 import kalmanfield as kf
-from kalmanfield.reference import row_filters as ref
+from kalmanfield.reference.rowfilter import row_filters as ref
 
 
 def reduced_plan(rho, order, noise_var, width, height, rank):

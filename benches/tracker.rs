@@ -1,10 +1,9 @@
-//! Criterion benchmarks of the branching tracker (SPEC §3.1–3.3): 100 frames of point
+//! Criterion benchmarks of the branching tracker (method page *Tracking*, §3.1–3.3): 100 frames of point
 //! detections, targets at 2 px/frame bouncing off the borders, P_d = 0.9, position noise
 //! 0.5 px, uniform clutter; the anchor configuration of `benches/bench_tracking.py`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::branching::tracker::splitmix64;
-use kalmanfield::branching::{BranchingTracker, TrackerConfig};
+use kalmanfield::tracking::{splitmix64, BranchingTracker, TrackerConfig};
 
 /// Uniform in [0, 1) from a counter.
 fn uniform(counter: u64) -> f64 {

@@ -1,4 +1,5 @@
-"""Seeded point-target scenario for the branching tracker (SPEC §3.3) and its anchors.
+"""Seeded point-target scenario for the branching tracker (method page *Tracking*, §3.3) and its
+anchors.
 
 Pure NumPy (pandas only to hand back tables), importable by the benches and the tests::
 
@@ -11,7 +12,7 @@ Pure NumPy (pandas only to hand back tables), importable by the benches and the 
 The anchor scenario (defaults): 100 frames of 256 × 256 px, 20 targets present in every frame,
 initial speed 2 px/frame in a uniform direction, a piecewise-constant white random acceleration
 of std ``accel_std`` = 0.1 px/frame² per axis (the discrete white-noise-acceleration model of
-SPEC §3.1 with ν = 1: x += v τ + a τ²/2, v += a τ), specular reflection at the borders
+§3.1 with ν = 1: x += v τ + a τ²/2, v += a τ), specular reflection at the borders
 (position mirrored into [0, size], that velocity component negated), detection probability
 0.9, Gaussian position noise σ = 0.5 px on the detected positions, and a Poisson-free
 ``n_clutter`` = 50 uniform clutter points per frame (exactly n_clutter, uniform over the

@@ -1,6 +1,6 @@
-"""The main job (python -m kalmanfield.demo) runs end to end and its filtering numbers are
-those of SPEC §2: every filter far below the noise, the smoothed O(W) filter near the Wiener
-bound, the optimal filter's predicted error variance equal to its measured MSE."""
+"""The main job (python -m kalmanfield.demo) runs end to end and its filtering numbers are those of
+method page *Row filters*, §2: every filter far below the noise, the smoothed O(W) filter near
+the Wiener bound, the optimal filter's predicted error variance equal to its measured MSE."""
 
 import subprocess
 import sys

@@ -1,4 +1,4 @@
-from typing import final
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
@@ -142,38 +142,11 @@ def wiener_map(
 
 MAX_MOTION_ORDER: int
 
+def tracker_defaults(k: int) -> dict[str, Any]: ...
+
 @final
 class BranchingTracker:
-    def __new__(
-        cls,
-        order: list[int],
-        process_std: list[float],
-        measurement_std: list[float],
-        n_spatial: int,
-        confidence: float,
-        memory: int,
-        max_misses: int,
-        dt: float,
-        p_detect: float,
-        clutter_density: float | None,
-        max_speed: float,
-        n_confirm: int,
-        confirm_llr: float,
-        confirm_window: int,
-        delete_llr: float | None,
-        max_per_tree: int,
-        max_hypotheses: int,
-        max_seeds: int,
-        max_children: int | None,
-        merge_depth: int,
-        maneuver_std: list[float] | None,
-        maneuver_prob: float,
-        min_hits: int,
-        final_llr: float,
-        max_shared: int,
-        selection: str,
-        seed: int,
-    ) -> BranchingTracker: ...
+    def __new__(cls, config: Any) -> BranchingTracker: ...
     def update(self, measurements: npt.NDArray[np.float64], time: float | None = None) -> None: ...
     def tracks(self) -> dict[str, np.ndarray]: ...
     def online(self) -> dict[str, np.ndarray]: ...
@@ -219,6 +192,169 @@ def kalman_filter(
     cov: npt.NDArray[np.float64],
     measurements: npt.NDArray[np.float64],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+# ---- filterbank: type identification by a bank of Kalman filters, IMM
+MAX_MEASUREMENT: float
+
+_ModelArrays = tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]
+
+def filterbank_check_model(
+    f: npt.NDArray[np.float64],
+    q: npt.NDArray[np.float64],
+    h: npt.NDArray[np.float64],
+    r: npt.NDArray[np.float64],
+    x0: npt.NDArray[np.float64],
+    p0: npt.NDArray[np.float64],
+) -> _ModelArrays: ...
+
+@final
+class TypeIdentifier:
+    def __new__(
+        cls,
+        models: list[_ModelArrays] | list[tuple[np.ndarray, ...]],
+        priors: list[float],
+        alpha: float | None = None,
+        beta: float | None = None,
+    ) -> TypeIdentifier: ...
+    def run(
+        self,
+        measurements: npt.NDArray[np.float64],
+        log_likelihoods: bool = False,
+        threads: int | None = None,
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64] | None]: ...
+    def log_likelihoods(self) -> npt.NDArray[np.float64]: ...
+    def posterior(self) -> npt.NDArray[np.float64]: ...
+    def decisions(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def n_trajectories(self) -> int: ...
+    @property
+    def frame(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    def load_state(self, state: bytes) -> None: ...
+
+@final
+class IMMEstimator:
+    def __new__(
+        cls,
+        models: list[_ModelArrays] | list[tuple[np.ndarray, ...]],
+        transition: npt.NDArray[np.float64],
+        mu: list[float],
+    ) -> IMMEstimator: ...
+    def run(
+        self, measurements: npt.NDArray[np.float64], threads: int | None = None
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def combined(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def mode_probabilities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def n_trajectories(self) -> int: ...
+    @property
+    def frame(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    def load_state(self, state: bytes) -> None: ...
+
+# ---- trajectory: fuzzy and Kalman trajectory filters, change points (method page "Fuzzy filter")
+MAX_SPREAD: float
+MAX_SAMPLE: float
+MAX_WINDOW: int
+
+@final
+class TrajectoryModel:
+    def __new__(
+        cls,
+        rule: str,
+        p: float,
+        q: float,
+        r: float,
+        p_vel: float,
+        q_vel: float,
+        r_vel: float | None = None,
+    ) -> TrajectoryModel: ...
+    def gains(self, times: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    def filter(
+        self,
+        z: npt.NDArray[np.float64],
+        times: npt.NDArray[np.float64] | None = None,
+        z_vel: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def filter_into(
+        self,
+        z: npt.NDArray[np.float64],
+        pos: npt.NDArray[np.float64],
+        vel: npt.NDArray[np.float64],
+        times: npt.NDArray[np.float64] | None = None,
+        z_vel: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
+    ) -> None: ...
+    @property
+    def rule(self) -> str: ...
+
+@final
+class FilterBank:
+    def __new__(cls, model: TrajectoryModel, series: int) -> FilterBank: ...
+    def step(
+        self,
+        t: float,
+        z: npt.NDArray[np.float64],
+        z_vel: npt.NDArray[np.float64] | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    @property
+    def series(self) -> int: ...
+    def state(self) -> npt.NDArray[np.float64]: ...
+    def load_state(self, state: npt.NDArray[np.float64]) -> None: ...
+
+@final
+class DetectorConfig:
+    def __new__(
+        cls, method: str, confidence: float, window: int, drift: float
+    ) -> DetectorConfig: ...
+    @property
+    def threshold(self) -> float: ...
+
+@final
+class DetectorBank:
+    def __new__(
+        cls, model: TrajectoryModel, config: DetectorConfig, series: int
+    ) -> DetectorBank: ...
+    def step(
+        self,
+        t: float,
+        z: npt.NDArray[np.float64],
+        z_vel: npt.NDArray[np.float64] | None = None,
+    ) -> tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.float64],
+    ]: ...
+    @property
+    def series(self) -> int: ...
+    def state(self) -> npt.NDArray[np.float64]: ...
+    def load_state(self, state: npt.NDArray[np.float64]) -> None: ...
+
+def detect_changes(
+    model: TrajectoryModel,
+    config: DetectorConfig,
+    z: npt.NDArray[np.float64],
+    times: npt.NDArray[np.float64] | None = None,
+    z_vel: npt.NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.bool_],
+    npt.NDArray[np.float64],
+]: ...
+def cusum_threshold(confidence: float, drift: float) -> float: ...
+def cusum_arl(h: float, drift: float) -> float: ...
+def effective_memory(alpha: float, beta: float, tau: float, level: float) -> int: ...
 
 # ---- template: correlation search, search-recurrent tracker (method page "Template tracker")
 def match_template(

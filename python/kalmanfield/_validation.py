@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import math
 import numbers
-import os
 from collections.abc import Iterable, Sequence
 from typing import Any, Union
 
 import numpy as np
 import numpy.typing as npt
+
+from ._memory import memory_budget
 
 SeedLike = Union[int, np.integer, np.random.Generator, None]
 ShapeLike = Union[int, Sequence[int]]
@@ -102,6 +103,18 @@ def probability(value: Any, name: str) -> float:
     return p
 
 
+def check_real_dtype(raw: np.ndarray, name: str) -> None:
+    """TypeError unless `raw` holds real numbers: an integer or float dtype, or objects that
+    are all real numbers (not bools, strings, None, complex…: float() would parse "1.5" and
+    take True as 1)."""
+    if raw.dtype.kind not in "iufO":
+        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    if raw.dtype.kind == "O":
+        for item in raw.flat:
+            if isinstance(item, (bool, np.bool_)) or not isinstance(item, numbers.Real):
+                raise TypeError(f"{name} must hold real numbers, got {item!r}")
+
+
 def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
     """`value` as a C-contiguous float64 array (at least 1-D); None, bool, complex, strings,
     datetimes, structured and other non-numeric input refused. The masked entries of a
@@ -110,8 +123,7 @@ def real_array(value: npt.ArrayLike, name: str) -> np.ndarray:
         raise TypeError(f"{name} must be an array, got None")
     masked = np.ma.getmaskarray(value) if isinstance(value, np.ma.MaskedArray) else None
     raw = np.asarray(np.ma.getdata(value) if masked is not None else value)
-    if raw.dtype.kind not in "iufO":
-        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    check_real_dtype(raw, name)
     try:
         out = np.ascontiguousarray(raw, dtype=np.float64)
     except OverflowError:
@@ -171,18 +183,16 @@ def float_dtype(dtype: npt.DTypeLike, sigma: float | None = None) -> np.dtype:
 
 
 def check_memory(shape: tuple[int, ...], dtype: np.dtype, copies: int = 1) -> None:
-    """MemoryError when `copies` arrays of `shape` and `dtype` exceed the machine's physical
-    memory (before a kernel would try to allocate them and abort)."""
+    """MemoryError when `copies` arrays of `shape` and `dtype` exceed the memory this process
+    may take (the machine's physical memory, or less under an address-space or cgroup limit),
+    before a kernel would try to allocate them and abort."""
     nbytes = copies * int(np.prod(shape, dtype=object)) * dtype.itemsize
-    try:
-        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
-        physical = None
-    if physical is not None and nbytes > physical:
+    budget = memory_budget()
+    if budget is not None and nbytes > budget[0]:
         what = f"a {shape} {dtype} array" if copies == 1 else f"{copies} {shape} {dtype} arrays"
         raise MemoryError(
             f"{what} need{'s' if copies == 1 else ''} {nbytes / 2**30:.1f} GiB, more than "
-            f"the {physical / 2**30:.1f} GiB of memory of this machine"
+            f"the {budget[0] / 2**30:.1f} GiB {budget[1]}"
         )
 
 
@@ -202,31 +212,92 @@ def finite_noise(noise: npt.ArrayLike, shape: tuple[int, ...], name: str = "nois
     return arr
 
 
+def peak_magnitude(values: np.ndarray) -> float:
+    """max |values| without a temporary array (NaN if any is NaN; empty: 0)."""
+    if values.size == 0:
+        return 0.0
+    with np.errstate(invalid="ignore"):
+        return max(float(values.max()), -float(values.min()))
+
+
+def check_given_noise_output(out: np.ndarray, limit: float | None = None) -> None:
+    """ValueError when a field made from finite caller-given noise left the float range
+    (or, if given, exceeds `limit`): the noise, documented as standard normal, was too large.
+    (Seeded noise cannot get there: σ is bounded.)"""
+    peak = peak_magnitude(out)
+    bound = np.finfo(out.dtype).max if limit is None else limit
+    if not peak <= bound:  # NaN too
+        reach = "overflows " + str(out.dtype) if not np.isfinite(peak) else f"reaches {peak:g}"
+        raise ValueError(
+            f"the field made from the given noise {reach}, beyond the {bound:g} it may hold: "
+            "the noise is standard normal (rescale it)"
+        )
+
+
+def boolean_mask(mask: npt.ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """`mask` checked as a boolean array of `shape` (True = leave the pixel out)."""
+    m = np.asarray(mask)
+    if m.shape != shape:
+        raise ValueError(f"mask must have the shape {shape} of {name}, got {m.shape}")
+    if m.dtype != np.bool_:
+        raise TypeError(f"mask must be a boolean array, got dtype {m.dtype}")
+    return m
+
+
 def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str = "data"):
     """Data as a fresh C-ordered float64 array with NaN at every missing pixel, plus the
     boolean array of valid pixels.
 
     Missing: NaN or infinite values, pixels masked by a ``numpy.ma.MaskedArray`` and pixels
     where ``mask`` is True (the ``numpy.ma`` convention: True marks a pixel to leave out).
-    Integer (uint8, uint16, …) and float inputs are accepted; bool and complex are refused.
+    Integer (uint8, uint16, …) and float inputs are accepted; bool, complex, strings and
+    other non-numbers are refused (TypeError, :func:`check_real_dtype`).
     """
     missing = np.ma.getmaskarray(data) if isinstance(data, np.ma.MaskedArray) else None
     raw = np.ma.getdata(data) if isinstance(data, np.ma.MaskedArray) else np.asarray(data)
-    if raw.dtype == np.bool_ or np.issubdtype(raw.dtype, np.complexfloating):
-        raise TypeError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    check_real_dtype(raw, name)
     try:
         values = np.array(raw, dtype=np.float64, order="C")
+    except OverflowError:
+        raise ValueError(f"{name} hold a number beyond float64's range") from None
     except (TypeError, ValueError) as err:
         raise TypeError(f"{name} must be a numeric array: {err}") from None
     if mask is not None:
-        m = np.asarray(mask)
-        if m.shape != values.shape:
-            raise ValueError(f"mask must have the shape {values.shape} of {name}, got {m.shape}")
-        if m.dtype != np.bool_:
-            raise TypeError(f"mask must be a boolean array, got dtype {m.dtype}")
+        m = boolean_mask(mask, values.shape, name)
         missing = m if missing is None else (missing | m)
     valid = np.isfinite(values)
     if missing is not None:
         valid &= ~missing
     values[~valid] = np.nan
     return values, valid
+
+
+def images(
+    z: npt.ArrayLike, width: int | None = None, missing: bool = False, finite: bool = True
+) -> np.ndarray:
+    """z as a C-contiguous float64 (H, W) image or (F, H, W) stack of `width` columns (None:
+    any width). uint8/uint16/int/float32 inputs are converted; None, bool and complex are
+    refused; infinite pixels are refused, and NaN pixels too unless `missing` (NaN = missing
+    observation).
+    finite=False skips the pixel check (for callers whose kernel checks every pixel)."""
+    arr = real_array(z, "images")
+    if arr.ndim not in (2, 3):
+        raise ValueError(f"z must be an image (H, W) or a stack (F, H, W), got {arr.ndim}-D")
+    if width is not None and arr.shape[-1] != width:
+        raise ValueError(f"the filter was built for width {width}, the images have {arr.shape[-1]}")
+    if arr.shape[-2] == 0 or arr.shape[-1] == 0:
+        raise ValueError(f"the images have no {'rows' if arr.shape[-2] == 0 else 'columns'}")
+    with np.errstate(over="ignore"):  # (finite pixels whose sum overflows: checked below)
+        total = arr.sum() if finite else 0.0
+    if np.isfinite(total):  # the fast path
+        return arr
+    if missing and not np.isinf(arr).any():
+        return arr
+    if not np.isfinite(arr).all():
+        raise ValueError(
+            "the images hold infinite pixels"
+            if missing
+            else "the images hold NaN or infinite pixels: this filter needs every pixel "
+            "(ScalarRowFilter treats NaN pixels as missing observations)"
+        )
+    return arr

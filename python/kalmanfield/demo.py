@@ -36,10 +36,10 @@ def _save_png(path: Path, image: np.ndarray) -> None:
 
 
 def _filtering_demo(out: Path, size: int, seed: int) -> dict[str, float]:
-    """A (2,2) field (ρ = 0.9, σ_x² = 1) plus unit white noise, size², filtered by the row
-    filters of SPEC §2; prints and returns each one's MSE against the field, the predicted
-    mean error variances of the optimal and the O(W) causal filters and the Wiener bound;
-    writes filtering.png (field, noisy image clipped to the field's range, smoothed
+    """A (2,2) field (ρ = 0.9, σ_x² = 1) plus unit white noise, size², filtered by the row filters
+    (method page *Row filters*); prints and returns each one's MSE against the field, the
+    predicted mean error variances of the optimal and the O(W) causal filters and the Wiener
+    bound; writes filtering.png (field, noisy image clipped to the field's range, smoothed
     estimate)."""
     model, noise_var = ARFieldModel([0.9, 0.9], [2, 2]), 1.0
     x = model.sample((size, size), seed=seed)
@@ -51,7 +51,7 @@ def _filtering_demo(out: Path, size: int, seed: int) -> dict[str, float]:
         "VectorRowFilter (optimal, causal)": optimal.filter,
         "ScalarRowFilter (O(W) per row, causal)": causal.filter,
         "ScalarRowFilter smooth=True": smoothed.filter,
-        "denoise (model and noise estimated)": lambda image: denoise(image, adaptive=False),
+        "denoise (model and noise estimated)": lambda image: denoise(image, method="stationary"),
     }
     mse = {"noisy image": float(np.mean((z - x) ** 2))}
     print(f"filtering: {model!r} + white noise (σ_θ² = {noise_var}), {size}²: MSE (ms)")

@@ -6,26 +6,9 @@ import numpy as np
 import pytest
 
 from kalmanfield import _core
+from kalmanfield.reference import kalman as ref
 
 stats = pytest.importorskip("scipy.stats")
-
-
-def dense_log_density(f, q, h, r, mean, cov, z):
-    """ln N(z_1..z_N): Cov(x_i, x_j) = F^(i−j) C_j (i ≥ j), C_k = F C_(k−1) Fᵀ + Q."""
-    frames, m = z.shape
-    means, covs = [], []
-    for _ in range(frames):
-        mean, cov = f @ mean, f @ cov @ f.T + q
-        means.append(mean)
-        covs.append(cov)
-    sigma = np.zeros((frames * m, frames * m))
-    for i in range(frames):
-        for j in range(i + 1):
-            block = h @ np.linalg.matrix_power(f, i - j) @ covs[j] @ h.T + (i == j) * r
-            sigma[i * m : (i + 1) * m, j * m : (j + 1) * m] = block
-            sigma[j * m : (j + 1) * m, i * m : (i + 1) * m] = block.T
-    expected = np.concatenate([h @ x for x in means])
-    return stats.multivariate_normal(expected, sigma).logpdf(z.ravel())
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -35,7 +18,18 @@ def test_summed_log_likelihood_is_the_dense_log_density(seed):
     mean, cov = rng.standard_normal(6), np.diag(rng.uniform(0.5, 2.0, 6))
     z = 3 * rng.standard_normal((6, 2))
     loglik = _core.kalman_filter(f, q, h, r, mean, cov, z)[2].sum()
-    assert loglik == pytest.approx(dense_log_density(f, q, h, r, mean, cov, z), rel=1e-10)
+    assert loglik == pytest.approx(ref.sequence_log_density(f, q, h, r, mean, cov, z), rel=1e-10)
+
+
+def test_missed_frames_are_marginalised():
+    rng = np.random.default_rng(11)
+    f, q, h, r = _core.kalman_constant_velocity(1.0, 0.5, 2, 0.8)
+    mean, cov = rng.standard_normal(4), np.eye(4)
+    z = 2 * rng.standard_normal((8, 2))
+    z[[2, 3, 6]] = np.nan
+    loglik = _core.kalman_filter(f, q, h, r, mean, cov, z)[2]
+    assert (loglik[[2, 3, 6]] == 0).all()
+    assert loglik.sum() == pytest.approx(ref.sequence_log_density(f, q, h, r, mean, cov, z))
 
 
 def test_update_is_the_conditional_gaussian():

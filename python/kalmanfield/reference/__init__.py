@@ -2,12 +2,12 @@
 
 Fed the same noise, each function here and its Rust counterpart agree to ~1e-10.
 
-The field's coefficient template [P 2.14] is ``ar_field.template``: the name ``template`` here
+The field's coefficient template [P 2.14] is ``field.ar_field.template``: the name ``template`` here
 is the subpackage of the template-matching domain (importing it would replace a function of
 that name on this package).
 """
 
-from .ar_field import (
+from .field.ar_field import (
     anisotropy,
     axis_ar_coefficients,
     axis_correlation,

@@ -1,6 +1,6 @@
-"""Search-recurrent fragment tracking (SPEC §5, source [F]): correlation search of a template
+"""Search-recurrent fragment tracking (source [F]): correlation search of a template
 (:func:`match_template`) steered by a Kalman predictor (:class:`TemplateTracker`). See the
-method page *Template tracker*."""
+method page *Template tracker*, §5."""
 
 from .matching import match_template
 from .tracker import TemplateTracker, TemplateUpdate

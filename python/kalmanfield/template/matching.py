@@ -1,6 +1,6 @@
 """Correlation search of a template in a frame: the correlation-extreme link of the
-search-recurrent tracker (SPEC §5, source [F]); the Rust kernel ``_core.match_template``, its
-twin :func:`kalmanfield.reference.template.match_template`."""
+search-recurrent tracker (method page *Template tracker*, §5.2); the Rust kernel
+``_core.match_template``, its twin :func:`kalmanfield.reference.template.match_template`."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def match_template(
     Parameters
     ----------
     frame : 2-D array-like
-        uint8, uint16, float32 and float64 are searched as they are (no copy when
+        The image searched. The dtypes uint8, uint16, float32 and float64 are searched as they are (no copy when
         C-contiguous); bool becomes uint8, other real dtypes float64. NaN pixels are missing:
         every position whose template footprint covers one scores NaN and is never the peak.
     template : 2-D array-like
@@ -76,7 +76,9 @@ def match_template(
         ``minMaxLoc`` location); its centre is (x + (w − 1)/2, y + (h − 1)/2).
     score : float
         The surface's value at the integer peak.
-    surface : ndarray, only with ``return_surface=True``
+    surface : ndarray
+        Only with ``return_surface=True``: the scores of every position (see
+        `return_surface`), NaN where the footprint covers a missing pixel.
 
     Raises
     ------
@@ -90,7 +92,7 @@ def match_template(
     Notes
     -----
     Direct sums for small templates, FFT correlation where it costs less; running window
-    sums for the normalisation. See the method page *Template tracker*.
+    sums for the normalisation. See the method page *Template tracker*, §5.2–5.3.
 
     Examples
     --------

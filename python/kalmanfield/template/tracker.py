@@ -1,6 +1,7 @@
-"""The search-recurrent fragment tracker (SPEC §5, source [F]): the correlation search of
-:func:`match_template` inside a window placed and sized by a Kalman predictor; the Rust core
-``_core.TemplateTracker``, its twin :mod:`kalmanfield.reference.template.tracker`."""
+"""The search-recurrent fragment tracker (method page *Template tracker*, §5.4): the
+correlation search of :func:`match_template` inside a window placed and sized by a Kalman
+predictor; the Rust core ``_core.TemplateTracker``, its twin
+:mod:`kalmanfield.reference.template.tracker`."""
 
 from __future__ import annotations
 
@@ -40,13 +41,37 @@ Position = tuple[float, float]
 class TemplateUpdate:
     """What one frame did to one template (positions are the template's top-left pixel).
 
-    ``x, y``: the filtered position; ``vx, vy``: the velocity (pixels per unit of ``dt``);
-    ``state`` and ``covariance``: the whole estimate, state order (x, vx[, ax], y, vy[, ay]);
-    ``score``: the NCC peak in the search window (NaN when no window could be searched);
-    ``x_measured, y_measured``: the position fed to the filter (NaN on a coasted frame);
-    ``window``: the searched region (x0, y0, x1, y1), x1 and y1 exclusive (None when off the
-    frame); ``collapsed``: the score collapsed and the whole frame was searched;
-    ``reacquired``: the whole-frame peak was accepted and the track restarted there.
+    Returned by :meth:`TemplateTracker.update`.
+
+    Parameters
+    ----------
+    x, y : float
+        The filtered position.
+    vx, vy : float
+        The filtered velocity (pixels per unit of ``dt``).
+    state : ndarray
+        The whole state estimate, order (x, vx[, ax], y, vy[, ay]).
+    covariance : ndarray
+        Its covariance.
+    score : float
+        The NCC peak in the search window (NaN when no window could be searched).
+    x_measured, y_measured : float
+        The position fed to the filter (NaN on a coasted frame).
+    window : (x0, y0, x1, y1) or None
+        The searched region, x1 and y1 exclusive (None when off the frame).
+    collapsed : bool
+        The score collapsed and the whole frame was searched.
+    reacquired : bool
+        The whole-frame peak was accepted and the track restarted there.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from kalmanfield import TemplateTracker
+    >>> frame = np.random.default_rng(1).standard_normal((60, 60))
+    >>> step = TemplateTracker(frame[10:20, 30:40], (30, 10), process_std=0.1).update(frame)
+    >>> round(step.x), round(step.y), step.window, step.coasted
+    (30, 10, (24, 4, 46, 26), False)
     """
 
     x: float
@@ -86,7 +111,7 @@ def _position(value: Any, name: str) -> Position:
 
 
 class TemplateTracker:
-    """Search-recurrent tracker of image fragments (SPEC §5, source [F]).
+    """Search-recurrent tracker of image fragments (method page *Template tracker*, §5.4).
 
     Per frame and template: a Kalman predictor places a search window of ± ``gate``
     standard deviations of the predicted position (plus the template); the NCC peak inside
@@ -114,7 +139,7 @@ class TemplateTracker:
     gate : float
         Half-width of the search window in predicted standard deviations.
     model : {"acceleration", "velocity"}
-        State per axis (x, vx, ax) as SPEC §5's λ, or (x, vx).
+        State per axis (x, vx, ax) as the source's λ (§5), or (x, vx).
     update_template : float in (0, 1], optional
         Template update rate α: after an accepted measurement whose score is at least the
         reference score, template ← (1 − α)·template + α·(frame under it). None: fixed.
@@ -243,7 +268,24 @@ class TemplateTracker:
         return dict(self._config)
 
     def model_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The Kalman model (F, Q, H, R) of the linear link (state order x, vx[, ax], y, …)."""
+        """The Kalman model of the linear link (state order x, vx[, ax], y, …).
+
+        Returns
+        -------
+        F : ndarray
+            Transition matrix.
+        Q : ndarray
+            Process noise covariance.
+        H : ndarray
+            Measurement matrix (picks the positions).
+        R : ndarray
+            Measurement noise covariance, ``measurement_std² I``.
+
+        Raises
+        ------
+        ValueError
+            Before the first frame (the model is built with the first frame's dtype).
+        """
         if self._core is None:
             raise ValueError("the model is built with the first frame's dtype; update first")
         f, q, h, r = self._core.model_matrices()
@@ -251,12 +293,26 @@ class TemplateTracker:
 
     # ------------------------------------------------------------------ per frame
     def update(self, frame: npt.ArrayLike) -> TemplateUpdate | list[TemplateUpdate]:
-        """Tracks the template(s) through the next frame.
+        """Track the template(s) through the next frame.
 
-        Returns a :class:`TemplateUpdate` (a list of them, one per template, for several
-        templates). Raises TypeError for a frame of another dtype than the templates',
-        ValueError for a frame that is not 2-D, smaller than a template or holding an
-        infinite pixel (NaN pixels are missing); the tracker is unchanged then.
+        Parameters
+        ----------
+        frame : 2-D array-like
+            The next frame, of the templates' dtype (see :func:`match_template`); NaN pixels
+            are missing.
+
+        Returns
+        -------
+        TemplateUpdate or list of TemplateUpdate
+            What the frame did to the template (one per template for several templates).
+
+        Raises
+        ------
+        TypeError
+            A frame of another dtype than the templates'.
+        ValueError
+            A frame that is not 2-D, smaller than a template or holding an infinite pixel;
+            the tracker is unchanged then.
         """
         image = frame_array(frame)
         if self._core is None:
@@ -271,13 +327,23 @@ class TemplateTracker:
         return steps if self._multi else steps[0]
 
     def track(self, frames: Iterable[npt.ArrayLike], progress: bool = False) -> pd.DataFrame:
-        """Runs :meth:`update` over `frames` (a 3-D array or any iterable of frames).
+        """Run :meth:`update` over `frames`.
 
-        Returns a DataFrame with one row per frame (and template): ``frame`` (running frame
-        number of this tracker), ``particle`` (template index, several templates only),
-        ``x``, ``y``, ``vx``, ``vy``, ``score``, ``window_w``, ``window_h`` (searched region,
-        0 when none), ``reacquired``, ``x_measured``, ``y_measured``, ``coasted``. Streaming
-        (update after update) gives the same rows.
+        Parameters
+        ----------
+        frames : iterable of 2-D array-like
+            A 3-D array (frame, row, column) or any iterable of frames.
+        progress : bool
+            Show a tqdm progress bar.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per frame (and template): ``frame`` (running frame number of this
+            tracker), ``particle`` (template index, several templates only), ``x``, ``y``,
+            ``vx``, ``vy``, ``score``, ``window_w``, ``window_h`` (searched region, 0 when
+            none), ``reacquired``, ``x_measured``, ``y_measured``, ``coasted``. Streaming
+            (update after update) gives the same rows.
         """
         rows: list[dict[str, Any]] = []
         total = len(frames) if hasattr(frames, "__len__") else None  # type: ignore[arg-type]

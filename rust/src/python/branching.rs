@@ -1,8 +1,8 @@
 //! Binding of the branching tracker (SPEC §3.1–3.3): `kalmanfield._core.BranchingTracker`.
 
-use crate::branching::{BranchingTracker, Selection, TrackerConfig};
+use crate::tracking::{BranchingTracker, Selection, TrackerConfig, MAX_MOTION_ORDER};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
@@ -19,72 +19,11 @@ fn array2<'py>(py: Python<'py>, v: Vec<f64>, cols: usize) -> PyResult<Bound<'py,
 
 #[pymethods]
 impl PyBranchingTracker {
+    /// A tracker from a checked `kalmanfield.TrackerConfig` (`TrackerConfig.for_params`).
     #[new]
-    #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (order, process_std, measurement_std, n_spatial, confidence, memory,
-        max_misses, dt, p_detect, clutter_density, max_speed, n_confirm, confirm_llr,
-        confirm_window, delete_llr, max_per_tree, max_hypotheses, max_seeds, max_children, merge_depth, maneuver_std,
-        maneuver_prob, min_hits, final_llr, max_shared, selection, seed))]
-    fn new(
-        order: Vec<usize>,
-        process_std: Vec<f64>,
-        measurement_std: Vec<f64>,
-        n_spatial: usize,
-        confidence: f64,
-        memory: usize,
-        max_misses: usize,
-        dt: f64,
-        p_detect: f64,
-        clutter_density: Option<f64>,
-        max_speed: f64,
-        n_confirm: usize,
-        confirm_llr: f64,
-        confirm_window: usize,
-        delete_llr: Option<f64>,
-        max_per_tree: usize,
-        max_hypotheses: usize,
-        max_seeds: usize,
-        max_children: Option<usize>,
-        merge_depth: usize,
-        maneuver_std: Option<Vec<f64>>,
-        maneuver_prob: f64,
-        min_hits: usize,
-        final_llr: f64,
-        max_shared: usize,
-        selection: &str,
-        seed: u64,
-    ) -> PyResult<Self> {
-        let cfg = TrackerConfig {
-            order,
-            process_std,
-            measurement_std,
-            n_spatial,
-            confidence,
-            memory,
-            max_misses,
-            dt,
-            p_detect,
-            clutter_density,
-            max_speed,
-            n_confirm,
-            confirm_llr,
-            confirm_window,
-            delete_llr,
-            max_per_tree,
-            max_hypotheses,
-            max_seeds,
-            max_children,
-            merge_depth,
-            maneuver_std,
-            maneuver_prob,
-            min_hits,
-            final_llr,
-            max_shared,
-            selection: Selection::parse(selection)?,
-            seed,
-        };
+    fn new(config: &Bound<'_, PyAny>) -> PyResult<Self> {
         Ok(Self {
-            inner: BranchingTracker::new(cfg)?,
+            inner: BranchingTracker::new(tracker_config(config)?)?,
         })
     }
 
@@ -136,17 +75,27 @@ impl PyBranchingTracker {
         Ok(out)
     }
 
-    /// Per frame: measurements, live sequences before, children, live after, new sequences.
+    /// Per frame: measurements, live sequences before, children, live after, new sequences,
+    /// bookkeeping records visited.
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let flat: Vec<i64> = self
             .inner
             .stats
             .iter()
-            .flat_map(|s| [s.measurements, s.live_before, s.children, s.live, s.seeds])
+            .flat_map(|s| {
+                [
+                    s.measurements,
+                    s.live_before,
+                    s.children,
+                    s.live,
+                    s.seeds,
+                    s.bookkeeping,
+                ]
+            })
             .map(|v| v as i64)
             .collect();
-        let rows = flat.len() / 5;
-        PyArray1::from_vec(py, flat).reshape([rows, 5])
+        let rows = flat.len() / 6;
+        PyArray1::from_vec(py, flat).reshape([rows, 6])
     }
 
     /// Global id of the first measurement of every frame.
@@ -189,12 +138,85 @@ impl PyBranchingTracker {
     }
 }
 
+/// The Rust configuration from the fields of a checked Python `TrackerConfig`.
+fn tracker_config(c: &Bound<'_, PyAny>) -> PyResult<TrackerConfig> {
+    fn field<'py, T: FromPyObjectOwned<'py>>(c: &Bound<'py, PyAny>, name: &str) -> PyResult<T> {
+        c.getattr(name)?.extract::<T>().map_err(|e| {
+            let e: PyErr = e.into();
+            PyTypeError::new_err(format!("TrackerConfig.{name} is not checked: {e}"))
+        })
+    }
+    let selection: String = field(c, "selection")?;
+    Ok(TrackerConfig {
+        order: field(c, "order")?,
+        process_std: field(c, "process_std")?,
+        measurement_std: field(c, "measurement_std")?,
+        n_spatial: field(c, "n_spatial")?,
+        confidence: field(c, "confidence")?,
+        memory: field(c, "memory")?,
+        max_misses: field(c, "max_misses")?,
+        dt: field(c, "dt")?,
+        p_detect: field(c, "p_detect")?,
+        clutter_density: field(c, "clutter_density")?,
+        max_speed: field(c, "max_speed")?,
+        n_confirm: field(c, "n_confirm")?,
+        confirm_llr: field(c, "confirm_llr")?,
+        confirm_window: field(c, "confirm_window")?,
+        delete_llr: field(c, "delete_llr")?,
+        max_per_tree: field(c, "max_per_tree")?,
+        max_hypotheses: field(c, "max_hypotheses")?,
+        max_seeds: field(c, "max_seeds")?,
+        max_children: field(c, "max_children")?,
+        merge_depth: field(c, "merge_depth")?,
+        maneuver_std: field(c, "maneuver_std")?,
+        maneuver_prob: field(c, "maneuver_prob")?,
+        min_hits: field(c, "min_hits")?,
+        final_llr: field(c, "final_llr")?,
+        max_shared: field(c, "max_shared")?,
+        selection: Selection::parse(&selection)?,
+        seed: field(c, "seed")?,
+    })
+}
+
+/// The Rust defaults for `k` parameters (a test checks them against `TrackerConfig`).
+#[pyfunction]
+fn tracker_defaults(py: Python<'_>, k: usize) -> PyResult<Bound<'_, PyDict>> {
+    let c = TrackerConfig::with_defaults(k);
+    let out = PyDict::new(py);
+    out.set_item("order", c.order)?;
+    out.set_item("process_std", c.process_std)?;
+    out.set_item("measurement_std", c.measurement_std)?;
+    out.set_item("n_spatial", c.n_spatial)?;
+    out.set_item("confidence", c.confidence)?;
+    out.set_item("memory", c.memory)?;
+    out.set_item("max_misses", c.max_misses)?;
+    out.set_item("dt", c.dt)?;
+    out.set_item("p_detect", c.p_detect)?;
+    out.set_item("clutter_density", c.clutter_density)?;
+    out.set_item("max_speed", c.max_speed)?;
+    out.set_item("n_confirm", c.n_confirm)?;
+    out.set_item("confirm_llr", c.confirm_llr)?;
+    out.set_item("confirm_window", c.confirm_window)?;
+    out.set_item("delete_llr", c.delete_llr)?;
+    out.set_item("max_per_tree", c.max_per_tree)?;
+    out.set_item("max_hypotheses", c.max_hypotheses)?;
+    out.set_item("max_seeds", c.max_seeds)?;
+    out.set_item("max_children", c.max_children)?;
+    out.set_item("merge_depth", c.merge_depth)?;
+    out.set_item("maneuver_std", c.maneuver_std)?;
+    out.set_item("maneuver_prob", c.maneuver_prob)?;
+    out.set_item("min_hits", c.min_hits)?;
+    out.set_item("final_llr", c.final_llr)?;
+    out.set_item("max_shared", c.max_shared)?;
+    out.set_item("selection", c.selection.name())?;
+    out.set_item("seed", c.seed)?;
+    Ok(out)
+}
+
 /// Adds the tracker class to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyBranchingTracker>()?;
-    m.add(
-        "MAX_MOTION_ORDER",
-        crate::branching::motion::MAX_MOTION_ORDER,
-    )?;
+    m.add_function(wrap_pyfunction!(tracker_defaults, m)?)?;
+    m.add("MAX_MOTION_ORDER", MAX_MOTION_ORDER)?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! `kalmanfield._core.match_template` and `kalmanfield._core.TemplateTracker`.
 
 use crate::kalman::Gaussian;
-use crate::segment::Pixel;
+use crate::image::Pixel;
 use crate::template::{
     match_template as match_kernel, Frame, Method, Motion, Step, Template, TemplateTracker,
     TrackerConfig, Window,

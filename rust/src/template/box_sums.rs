@@ -6,7 +6,7 @@
 //! the binary digits of w): ⌈log₂ w⌉ + popcount(w) vector passes over the row, no serial
 //! chain of additions and no rounding carried from one window to the next.
 
-use crate::scratch::Scratch;
+use crate::image::Scratch;
 
 /// Window sums [Σ a, Σ a²] of consecutive output rows, from a given first row on.
 pub(crate) struct RowWindows<'a> {

@@ -3,7 +3,8 @@
 //! product costs one load of `a` (no load or store of the output).
 
 use super::tasks::for_each_chunk;
-use crate::scratch::Scratch;
+use crate::image::Scratch;
+use crate::simd::{dispatch, Arith, Kernel};
 
 /// Output columns per register strip (eight 4-lane registers).
 const STRIP: usize = 32;
@@ -21,7 +22,6 @@ pub(crate) fn correlate(
 ) -> Scratch {
     let ow = cols + 1 - w;
     let mut out = Scratch::to_overwrite(oh * ow);
-    let fused = crate::banded::fused_available();
     for_each_chunk(&mut out, ow * ROWS_PER_TASK, parallel, |task, block| {
         for (k, row) in block.chunks_mut(ow).enumerate() {
             let y = task * ROWS_PER_TASK + k;
@@ -33,54 +33,51 @@ pub(crate) fn correlate(
                 h,
                 w,
             };
-            #[cfg(target_arch = "x86_64")]
-            if fused {
-                // SAFETY: the CPU has FMA and AVX2.
-                unsafe { output_row_fused(&lines, row) };
-                continue;
-            }
-            let _ = fused;
-            output_row::<false>(&lines, row);
+            dispatch(OutputRow { lines, row });
         }
     });
     out
 }
 
 /// What an output row reads: `a` from row `y` on, the template.
-struct Lines<'a> {
-    a: &'a [f64],
-    cols: usize,
-    y: usize,
-    t: &'a [f64],
-    h: usize,
-    w: usize,
+pub(super) struct Lines<'a> {
+    pub(super) a: &'a [f64],
+    pub(super) cols: usize,
+    pub(super) y: usize,
+    pub(super) t: &'a [f64],
+    pub(super) h: usize,
+    pub(super) w: usize,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "fma,avx2")]
-unsafe fn output_row_fused(lines: &Lines<'_>, row: &mut [f64]) {
-    output_row::<true>(lines, row)
+/// One output row: the kernel of the runtime SIMD dispatch.
+pub(super) struct OutputRow<'a, 'r> {
+    pub(super) lines: Lines<'a>,
+    pub(super) row: &'r mut [f64],
 }
 
-#[inline(always)]
-fn output_row<const FUSED: bool>(lines: &Lines<'_>, row: &mut [f64]) {
-    let mut x0 = 0;
-    while x0 + STRIP <= row.len() {
-        row[x0..x0 + STRIP].copy_from_slice(&strip::<FUSED, STRIP>(lines, x0));
-        x0 += STRIP;
-    }
-    while x0 + 4 <= row.len() {
-        row[x0..x0 + 4].copy_from_slice(&strip::<FUSED, 4>(lines, x0));
-        x0 += 4;
-    }
-    for (x, out) in row.iter_mut().enumerate().skip(x0) {
-        *out = strip::<FUSED, 1>(lines, x)[0];
+impl Kernel for OutputRow<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<A: Arith>(self) {
+        let (lines, row) = (&self.lines, self.row);
+        let mut x0 = 0;
+        while x0 + STRIP <= row.len() {
+            row[x0..x0 + STRIP].copy_from_slice(&strip::<A, STRIP>(lines, x0));
+            x0 += STRIP;
+        }
+        while x0 + 4 <= row.len() {
+            row[x0..x0 + 4].copy_from_slice(&strip::<A, 4>(lines, x0));
+            x0 += 4;
+        }
+        for (x, out) in row.iter_mut().enumerate().skip(x0) {
+            *out = strip::<A, 1>(lines, x)[0];
+        }
     }
 }
 
 /// c[y, x0..x0 + S].
 #[inline(always)]
-fn strip<const FUSED: bool, const S: usize>(lines: &Lines<'_>, x0: usize) -> [f64; S] {
+fn strip<A: Arith, const S: usize>(lines: &Lines<'_>, x0: usize) -> [f64; S] {
     let Lines {
         a,
         cols,
@@ -96,11 +93,7 @@ fn strip<const FUSED: bool, const S: usize>(lines: &Lines<'_>, x0: usize) -> [f6
         for (j, &tij) in t[i * w..(i + 1) * w].iter().enumerate() {
             let values: &[f64; S] = source[j..j + S].try_into().expect("S values");
             for (s, &v) in acc.iter_mut().zip(values) {
-                *s = if FUSED {
-                    tij.mul_add(v, *s)
-                } else {
-                    *s + tij * v
-                };
+                *s = A::add_product(*s, tij, v);
             }
         }
     }

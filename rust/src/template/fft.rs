@@ -8,7 +8,7 @@
 //! lines, in parallel over fixed blocks of lines (the result does not depend on the threads).
 
 use super::tasks::{for_each_chunk, for_each_index};
-use crate::scratch::Scratch;
+use crate::image::Scratch;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::{Fft, FftPlanner};

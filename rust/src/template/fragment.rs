@@ -1,7 +1,7 @@
 //! A template (the fragment searched for), with the sums every score needs.
 
 use super::region::MAX_DEVIATION;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// An h × w template as float64: its pixels, their mean-removed copy and their sums.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,4 +1,4 @@
-//! Search-recurrent fragment tracker (SPEC §5, source [F]): a template is found in each frame
+//! Search-recurrent fragment tracker (SPEC §5, source [F]; method page *Template tracker*): a template is found in each frame
 //! by a correlation-extreme search, and a Kalman filter steers the search window.
 //!
 //! Conventions shared by every item of the domain (the method page *Template tracker* states
@@ -16,14 +16,14 @@
 mod box_sums;
 mod direct;
 mod fft;
-pub mod fragment;
-pub mod frame;
+mod fragment;
+mod frame;
 mod gate;
-pub mod peak;
-pub mod region;
-pub mod surface;
+mod peak;
+mod region;
+mod surface;
 mod tasks;
-pub mod tracker;
+mod tracker;
 
 #[cfg(test)]
 mod tests;
@@ -34,19 +34,3 @@ pub use peak::{refine_peak, Peak};
 pub use region::Region;
 pub use surface::{match_template, Match, Method, Surface};
 pub use tracker::{Motion, Step, Target, TemplateTracker, TrackerConfig};
-
-/// Whether the CPU runs the AVX2 + FMA builds of the scan loops (decided once per process).
-/// The crate is built for baseline x86-64; those loops are `#[inline(always)]` functions
-/// called from a `#[target_feature]` wrapper, so they use 4-lane registers. The arithmetic is
-/// the same (Rust never contracts `a * b + c` into a fused multiply-add by itself).
-#[inline(always)]
-pub(crate) fn avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        crate::banded::fused_available()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}

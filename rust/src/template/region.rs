@@ -1,12 +1,12 @@
 //! The searched region as float64, shifted by its mean: the one copy every correlation and
 //! window sum of a search reads.
 
-use super::avx2;
 use super::frame::{Frame, Window};
 use super::tasks::{map_chunks, PARALLEL_PIXELS};
-use crate::error::{FieldError, Result};
-use crate::scratch::Scratch;
-use crate::segment::Pixel;
+use crate::{FieldError, Result};
+use crate::image::Scratch;
+use crate::simd::{dispatch, Arith, Kernel};
+use crate::image::Pixel;
 
 /// Rows per parallel task of the conversion (fixed: the sums do not depend on the threads).
 const ROWS_PER_TASK: usize = 32;
@@ -55,7 +55,11 @@ impl Region {
                 let mut t = Task::default();
                 for (k, out) in chunk.chunks_mut(cols).enumerate() {
                     let r = task * ROWS_PER_TASK + k;
-                    let (spread, non_finite) = shifted_row_dispatch(row(r), shift, out);
+                    let (spread, non_finite) = dispatch(ShiftedRow {
+                        line: row(r),
+                        shift,
+                        out,
+                    });
                     t.spread = t.spread.max(spread);
                     if T::MAY_BE_NON_FINITE && non_finite {
                         let infinite = out.iter().position(|v| v.is_infinite());
@@ -137,18 +141,19 @@ fn shifted_row<T: Pixel>(line: &[T], shift: f64, out: &mut [f64]) -> (f64, bool)
     (largest, non_finite.iter().any(|v| v.is_nan()))
 }
 
-/// [`shifted_row`], on 4-lane registers when the CPU has AVX2.
-fn shifted_row_dispatch<T: Pixel>(line: &[T], shift: f64, out: &mut [f64]) -> (f64, bool) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2() {
-        #[target_feature(enable = "avx2,fma")]
-        unsafe fn wide<T: Pixel>(line: &[T], shift: f64, out: &mut [f64]) -> (f64, bool) {
-            shifted_row(line, shift, out)
-        }
-        // SAFETY: the CPU has AVX2 and FMA.
-        return unsafe { wide(line, shift, out) };
+/// [`shifted_row`] as a kernel of the runtime SIMD dispatch (4-lane registers with AVX2).
+struct ShiftedRow<'a, T> {
+    line: &'a [T],
+    shift: f64,
+    out: &'a mut [f64],
+}
+
+impl<T: Pixel> Kernel for ShiftedRow<'_, T> {
+    type Output = (f64, bool);
+    #[inline(always)]
+    fn run<A: Arith>(self) -> (f64, bool) {
+        shifted_row(self.line, self.shift, self.out)
     }
-    shifted_row(line, shift, out)
 }
 
 /// Per task of the conversion: NaN count, largest |pixel − shift|, first infinite pixel.

@@ -10,7 +10,6 @@
 //! Positions whose footprint covers a NaN pixel score NaN. The correlation sums are direct for
 //! small templates and through the FFT where that costs less ([`use_fft`]).
 
-use super::avx2;
 use super::box_sums::RowWindows;
 use super::direct;
 use super::fft::{self, ComplexScratch, Plan};
@@ -19,9 +18,10 @@ use super::frame::{Frame, Window};
 use super::peak::{highest, peak_at, Peak};
 use super::region::Region;
 use super::tasks::map_chunks;
-use crate::error::{FieldError, Result};
-use crate::scratch::Scratch;
-use crate::segment::Pixel;
+use crate::{FieldError, Result};
+use crate::image::Scratch;
+use crate::simd::{dispatch, Arith, Kernel};
+use crate::image::Pixel;
 use std::sync::Arc;
 
 /// A window whose V = S₂ − S₁²/n is at most this fraction of S₂ is flat: its NCC is 0.
@@ -65,7 +65,7 @@ impl Method {
 #[derive(Debug)]
 pub struct Surface {
     /// Row-major scores.
-    pub values: Scratch,
+    pub(crate) values: Scratch,
     /// Positions along y.
     pub rows: usize,
     /// Positions along x.
@@ -77,6 +77,11 @@ pub struct Surface {
 }
 
 impl Surface {
+    /// The row-major scores, `rows` × `cols`.
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
     /// The highest non-NaN score and its (refined) frame position; None when all are NaN.
     pub fn peak(&self, subpixel: bool) -> Option<Match> {
         let p = peak_at(&self.values, (self.rows, self.cols), self.best?, subpixel);
@@ -198,20 +203,11 @@ fn score(
     let ow = region.cols + 1 - template.w;
     let bests = map_chunks(num, ow * ROWS_PER_TASK, region.parallel, |task, block| {
         let y0 = task * ROWS_PER_TASK;
-        #[cfg(target_arch = "x86_64")]
-        if avx2() {
-            #[target_feature(enable = "avx2,fma")]
-            unsafe fn wide(
-                block: &mut [f64],
-                y0: usize,
-                inputs: (&Region, &Template, Method),
-            ) -> Option<(usize, f64)> {
-                score_block(block, y0, inputs)
-            }
-            // SAFETY: the CPU has AVX2 and FMA.
-            return unsafe { wide(block, y0, (region, template, method)) };
-        }
-        score_block(block, y0, (region, template, method))
+        dispatch(ScoreBlock {
+            block,
+            y0,
+            inputs: (region, template, method),
+        })
     });
     // the first highest over the tasks (in order)
     bests
@@ -220,7 +216,21 @@ fn score(
         .reduce(|a, b| if b.1 > a.1 { b } else { a })
 }
 
-/// [`score`] on the output rows y0.. held by `block`.
+/// [`score`] on the output rows y0.. held by `block`: a kernel of the runtime SIMD dispatch.
+struct ScoreBlock<'a> {
+    block: &'a mut [f64],
+    y0: usize,
+    inputs: (&'a Region, &'a Template, Method),
+}
+
+impl Kernel for ScoreBlock<'_> {
+    type Output = Option<(usize, f64)>;
+    #[inline(always)]
+    fn run<A: Arith>(self) -> Option<(usize, f64)> {
+        score_block(self.block, self.y0, self.inputs)
+    }
+}
+
 #[inline(always)]
 fn score_block(
     block: &mut [f64],

@@ -124,3 +124,39 @@ fn bad_inputs_are_errors() {
     let one = Template::new(vec![1.0], 1, 1).unwrap();
     assert!(match_template(&fr, &one, None, Method::Correlation, true).is_err());
 }
+
+#[test]
+fn portable_and_fused_direct_sums_agree() {
+    use super::direct::{Lines, OutputRow};
+    use crate::simd::{dispatch, run_plain};
+    let (rows, cols, h, w) = (12, 75, 5, 7);
+    let a: Vec<f64> = (0..rows * cols).map(noise).collect();
+    let t: Vec<f64> = (0..h * w).map(|k| noise(k + 99)).collect();
+    let lines = |y| Lines {
+        a: &a,
+        cols,
+        y,
+        t: &t,
+        h,
+        w,
+    };
+    for y in 0..rows - h + 1 {
+        let (mut plain, mut best) = (vec![0.0; cols - w + 1], vec![0.0; cols - w + 1]);
+        run_plain(OutputRow {
+            lines: lines(y),
+            row: &mut plain,
+        });
+        dispatch(OutputRow {
+            lines: lines(y),
+            row: &mut best,
+        });
+        for x in 0..cols - w + 1 {
+            let exact: f64 = (0..h * w)
+                .map(|k| a[(y + k / w) * cols + x + k % w] * t[k])
+                .sum();
+            // 35 products of values ≤ 1: rounding of either build is far below 1e-13
+            assert!((plain[x] - exact).abs() < 1e-13, "plain ({y}, {x})");
+            assert!((best[x] - exact).abs() < 1e-13, "dispatched ({y}, {x})");
+        }
+    }
+}

@@ -31,9 +31,9 @@ use super::gate::search_window;
 use super::peak::distinctness;
 use super::region::Region;
 use super::surface::{Correlator, Match, Method};
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use crate::kalman::{self, Gaussian, LinearGaussian};
-use crate::segment::Pixel;
+use crate::image::Pixel;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 

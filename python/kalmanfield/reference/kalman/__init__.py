@@ -3,6 +3,7 @@ Gaussian model (F, Q, H, R), one predict step, the Joseph-form update with its i
 log-likelihood, and the four motion models (block-diagonal over the axes, positions
 observed, R = measurement_std² I)."""
 
+from .density import sequence_log_density
 from .motion import constant_acceleration, constant_velocity, markov_velocity, singer
 from .recursion import LN_2PI, check_covariance, filter_sequence, gain, predict, update
 
@@ -15,6 +16,7 @@ __all__ = [
     "gain",
     "markov_velocity",
     "predict",
+    "sequence_log_density",
     "singer",
     "update",
 ]

@@ -1,0 +1,1 @@
+"""Twins of the segmentation and of the branching tracker."""
