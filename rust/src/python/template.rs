@@ -1,8 +1,8 @@
 //! Binding of the search-recurrent fragment tracker's kernels (SPEC §5):
 //! `kalmanfield._core.match_template` and `kalmanfield._core.TemplateTracker`.
 
-use crate::kalman::Gaussian;
 use crate::image::Pixel;
+use crate::kalman::Gaussian;
 use crate::template::{
     match_template as match_kernel, Frame, Method, Motion, Step, Template, TemplateTracker,
     TrackerConfig, Window,

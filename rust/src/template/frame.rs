@@ -1,7 +1,7 @@
 //! A frame (row-major pixels of any supported type) and a search window on it.
 
-use crate::{FieldError, Result};
 use crate::image::Pixel;
+use crate::{FieldError, Result};
 
 /// A row-major image borrowed from the caller; uint8, uint16, float32 or float64 pixels.
 #[derive(Debug, Clone, Copy)]

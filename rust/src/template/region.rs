@@ -3,10 +3,10 @@
 
 use super::frame::{Frame, Window};
 use super::tasks::{map_chunks, PARALLEL_PIXELS};
-use crate::{FieldError, Result};
+use crate::image::Pixel;
 use crate::image::Scratch;
 use crate::simd::{dispatch, Arith, Kernel};
-use crate::image::Pixel;
+use crate::{FieldError, Result};
 
 /// Rows per parallel task of the conversion (fixed: the sums do not depend on the threads).
 const ROWS_PER_TASK: usize = 32;

@@ -18,10 +18,10 @@ use super::frame::{Frame, Window};
 use super::peak::{highest, peak_at, Peak};
 use super::region::Region;
 use super::tasks::map_chunks;
-use crate::{FieldError, Result};
+use crate::image::Pixel;
 use crate::image::Scratch;
 use crate::simd::{dispatch, Arith, Kernel};
-use crate::image::Pixel;
+use crate::{FieldError, Result};
 use std::sync::Arc;
 
 /// A window whose V = S₂ − S₁²/n is at most this fraction of S₂ is flat: its NCC is 0.

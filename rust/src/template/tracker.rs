@@ -31,9 +31,9 @@ use super::gate::search_window;
 use super::peak::distinctness;
 use super::region::Region;
 use super::surface::{Correlator, Match, Method};
-use crate::{FieldError, Result};
-use crate::kalman::{self, Gaussian, LinearGaussian};
 use crate::image::Pixel;
+use crate::kalman::{self, Gaussian, LinearGaussian};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
