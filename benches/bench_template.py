@@ -315,7 +315,8 @@ def picture(path: Path) -> None:
     from PIL import Image  # matplotlib's own dependency
 
     # a 256-colour palette keeps the noisy frame's picture well under 200 kB
-    Image.fromarray(rgba[..., :3]).quantize(256, method=Image.Quantize.FASTOCTREE).save(path, optimize=True)
+    palette = Image.fromarray(rgba[..., :3]).quantize(256, method=Image.Quantize.FASTOCTREE)
+    palette.save(path, optimize=True)
 
 
 # -------------------------------------------------------------------------------- report

@@ -49,9 +49,10 @@ def match_template(
     Parameters
     ----------
     frame : 2-D array-like
-        The image searched. The dtypes uint8, uint16, float32 and float64 are searched as they are (no copy when
-        C-contiguous); bool becomes uint8, other real dtypes float64. NaN pixels are missing:
-        every position whose template footprint covers one scores NaN and is never the peak.
+        The image searched. The dtypes uint8, uint16, float32 and float64 are searched as
+        they are (no copy when C-contiguous); bool becomes uint8, other real dtypes float64.
+        NaN pixels are missing: every position whose template footprint covers one scores
+        NaN and is never the peak.
     template : 2-D array-like
         The fragment searched for. A NumPy array must have the frame's dtype; a list is
         taken in the frame's dtype when its values fit exactly.
