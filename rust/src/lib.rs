@@ -4,9 +4,9 @@
 //! Formulas are those of the method pages of the documentation (`docs/methods/`), cited per
 //! item as "SPEC §x.y". One folder per domain, each a layer that uses only the layers below
 //! it (checked by `.ci/check_layers.py`): `simd`, `image` < `linalg` < `field`,
-//! `identification`, `kalman` < `rowfilter`, `template` < `denoising` < `tracking` < the
-//! `python` bindings. The crate's API is the
-//! domains' re-exports.
+//! `identification`, `kalman` < `rowfilter`, `filterbank`, `trajectory`, `template` <
+//! `denoising` < `tracking` < the `python` bindings. The crate's API is the domains'
+//! re-exports.
 
 pub mod denoising;
 mod error;
