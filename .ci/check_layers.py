@@ -31,6 +31,7 @@ from pathlib import Path
 LAYERS = {
     "error": 0,
     "simd": 1,
+    "image": 1,
     "linalg": 2,
     "field": 3,
     "identification": 3,
@@ -38,6 +39,7 @@ LAYERS = {
     "rowfilter": 4,
     "filterbank": 4,
     "trajectory": 4,
+    "template": 4,
     "denoising": 5,
     "tracking": 6,
     "python": 7,

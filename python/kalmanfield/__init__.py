@@ -4,8 +4,9 @@ sequences, with a Rust core.
 The package is organised by domain: :mod:`kalmanfield.field` (random fields),
 :mod:`kalmanfield.identification`, :mod:`kalmanfield.rowfilter` (row Kalman filters),
 :mod:`kalmanfield.denoising`, :mod:`kalmanfield.tracking`, :mod:`kalmanfield.filterbank`
-(object types from trajectories) and :mod:`kalmanfield.trajectory` (fuzzy and Kalman filters
-of a parameter's trajectory, change points); every public name is also here at the top level.
+(object types from trajectories), :mod:`kalmanfield.trajectory` (fuzzy and Kalman filters
+of a parameter's trajectory, change points) and :mod:`kalmanfield.template` (template search and
+the Kalman-steered template tracker); every public name is also here at the top level.
 The sources' Monte Carlo studies are in :mod:`kalmanfield.experiments`. The method pages of the
 documentation give the formulas and sources.
 """
@@ -27,6 +28,7 @@ from .identification import (
     yule_walker,
 )
 from .rowfilter import ScalarRowFilter, VectorRowFilter, wiener_bound, wiener_error_map
+from .template import TemplateTracker, TemplateUpdate, match_template
 from .tracking import BranchingTracker, TrackerConfig, link, segment
 from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
 
@@ -42,6 +44,8 @@ __all__ = [
     "KalmanFilterCV",
     "LinearGaussianModel",
     "ScalarRowFilter",
+    "TemplateTracker",
+    "TemplateUpdate",
     "TrackerConfig",
     "TypeIdentifier",
     "VectorRowFilter",
@@ -54,6 +58,7 @@ __all__ = [
     "identify",
     "link",
     "local_moments",
+    "match_template",
     "model_from_noisy",
     "sample_correlation",
     "sample_product_field",

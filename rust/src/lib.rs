@@ -3,19 +3,22 @@
 //!
 //! Formulas are those of the method pages of the documentation (`docs/methods/`), cited per
 //! item as "SPEC §x.y". One folder per domain, each a layer that uses only the layers below
-//! it (checked by `.ci/check_layers.py`): `simd` < `linalg` < `field`, `identification`,
-//! `kalman` < `rowfilter`, `filterbank`, `trajectory` < `denoising` < `tracking` < the
-//! `python` bindings. The crate's API is the domains' re-exports.
+//! it (checked by `.ci/check_layers.py`): `simd`, `image` < `linalg` < `field`,
+//! `identification`, `kalman` < `rowfilter`, `filterbank`, `trajectory`, `template` <
+//! `denoising` < `tracking` < the `python` bindings. The crate's API is the domains'
+//! re-exports.
 
 pub mod denoising;
 mod error;
 pub mod field;
 pub mod filterbank;
 pub mod identification;
+mod image;
 pub mod kalman;
 pub mod linalg;
 pub mod rowfilter;
 mod simd;
+pub mod template;
 pub mod tracking;
 pub mod trajectory;
 

@@ -114,7 +114,7 @@ def test_template_matches_reference_and_sign_convention():
     model = kf.ARFieldModel([0.9, 0.6], [2, 3])
     c = model.coefficients()
     assert c.shape == (3, 4)
-    np.testing.assert_allclose(c, ref.template(model.rho, model.order), rtol=1e-14)
+    np.testing.assert_allclose(c, ref.field.ar_field.template(model.rho, model.order), rtol=1e-14)
     assert c[0, 0] == 1.0
     # 8-point model: x = 2ρ x_{i-1} - ρ² x_{i-2} along one axis (§1.2 fix of [P 1.9])
     one = kf.ARFieldModel(0.9, 2).coefficients()

@@ -1,6 +1,10 @@
 """Plain-NumPy twins of the Rust kernels, written for clarity, used to cross-check them.
 
 Fed the same noise, each function here and its Rust counterpart agree to ~1e-10.
+
+The field's coefficient template [P 2.14] is ``field.ar_field.template``: the name ``template`` here
+is the subpackage of the template-matching domain (importing it would replace a function of
+that name on this package).
 """
 
 from .field.ar_field import (
@@ -14,7 +18,6 @@ from .field.ar_field import (
     sample,
     stationary_start,
     stream_frame,
-    template,
 )
 
 __all__ = [
@@ -28,5 +31,4 @@ __all__ = [
     "sample",
     "stationary_start",
     "stream_frame",
-    "template",
 ]

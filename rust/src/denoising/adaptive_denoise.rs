@@ -13,9 +13,9 @@
 //! holds one.
 
 use super::local_moments::local_moments;
-use super::scratch::Scratch;
 use crate::error::{check_noise_var, FieldError, Result};
 use crate::field::FieldModel;
+use crate::image::Scratch;
 use crate::rowfilter::row_axes;
 use crate::rowfilter::ModeSet;
 use crate::rowfilter::{model_ar_order, RowModels, ScalarRowFilter};

@@ -15,6 +15,8 @@
 //! (foreground only): the one-pass form Σ w x² − x̄² Σ w loses all digits of a spread that is
 //! small against the segment's size, while this costs a few percent of the scan.
 
+pub use crate::image::Pixel;
+
 use crate::error::{FieldError, Result};
 use moments::{finish_segments, label_image, Scan};
 use rayon::prelude::*;
@@ -26,24 +28,6 @@ mod moments;
 mod runs;
 mod sums;
 mod union_find;
-
-/// A pixel type of a frame: converted exactly to f64.
-pub trait Pixel: Copy + Into<f64> + Send + Sync {
-    /// Whether a value of this type can be NaN or infinite (floats).
-    const MAY_BE_NON_FINITE: bool;
-}
-impl Pixel for u8 {
-    const MAY_BE_NON_FINITE: bool = false;
-}
-impl Pixel for u16 {
-    const MAY_BE_NON_FINITE: bool = false;
-}
-impl Pixel for f32 {
-    const MAY_BE_NON_FINITE: bool = true;
-}
-impl Pixel for f64 {
-    const MAY_BE_NON_FINITE: bool = true;
-}
 
 /// One connected segment of foreground pixels (definitions in the module docs).
 #[derive(Debug, Clone, PartialEq)]

@@ -28,14 +28,7 @@ pub(crate) struct Scratch(Vec<f64>);
 impl Scratch {
     /// `len` zeros: the smallest spare of at least `len` values, or a fresh allocation.
     pub fn zeros(len: usize) -> Self {
-        let spare = SPARES.with(|spares| {
-            let mut spares = spares.borrow_mut();
-            let best = (0..spares.len())
-                .filter(|&k| spares[k].capacity() >= len)
-                .min_by_key(|&k| spares[k].capacity());
-            best.map(|k| spares.swap_remove(k))
-        });
-        match spare {
+        match spare(len) {
             Some(mut values) => {
                 values.clear();
                 values.resize(len, 0.0);
@@ -44,6 +37,29 @@ impl Scratch {
             None => Scratch(vec![0.0; len]),
         }
     }
+
+    /// `len` values for a kernel that writes every one before reading it: a spare keeps what
+    /// its last user left (no pass over the memory), a fresh allocation holds zeros.
+    pub fn to_overwrite(len: usize) -> Self {
+        match spare(len) {
+            Some(mut values) => {
+                values.resize(len, 0.0);
+                Scratch(values)
+            }
+            None => Scratch(vec![0.0; len]),
+        }
+    }
+}
+
+/// The thread's smallest spare of at least `len` values, taken off the list.
+fn spare(len: usize) -> Option<Vec<f64>> {
+    SPARES.with(|spares| {
+        let mut spares = spares.borrow_mut();
+        let best = (0..spares.len())
+            .filter(|&k| spares[k].capacity() >= len)
+            .min_by_key(|&k| spares[k].capacity());
+        best.map(|k| spares.swap_remove(k))
+    })
 }
 
 impl Drop for Scratch {
@@ -104,6 +120,19 @@ mod tests {
         assert_eq!(second.len(), 900);
         assert!(second.iter().all(|&v| v == 0.0));
         assert_eq!(retained_bytes(), 0);
+    }
+
+    #[test]
+    fn a_buffer_to_overwrite_keeps_its_values() {
+        let address = {
+            let mut first = Scratch::zeros(10);
+            first.fill(7.0);
+            first.as_ptr()
+        };
+        let second = Scratch::to_overwrite(8);
+        assert_eq!(second.as_ptr(), address);
+        assert_eq!(&second[..], &[7.0; 8]);
+        assert!(Scratch::to_overwrite(5000).iter().all(|&v| v == 0.0));
     }
 
     #[test]
