@@ -39,6 +39,7 @@ LAYERS = {
     "filterbank": 4,
     "trajectory": 4,
     "denoising": 5,
+    "sequence": 5,
     "tracking": 6,
     "python": 7,
 }

@@ -25,6 +25,7 @@ from .identification import (
     yule_walker,
 )
 from .rowfilter import ScalarRowFilter, VectorRowFilter, wiener_bound, wiener_error_map
+from .sequence import SequenceFilter
 from .tracking import BranchingTracker, TrackerConfig, link, segment
 from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
 
@@ -40,6 +41,7 @@ __all__ = [
     "KalmanFilterCV",
     "LinearGaussianModel",
     "ScalarRowFilter",
+    "SequenceFilter",
     "TrackerConfig",
     "TypeIdentifier",
     "VectorRowFilter",

@@ -15,6 +15,7 @@ pub mod identification;
 pub mod kalman;
 pub mod linalg;
 pub mod rowfilter;
+pub mod sequence;
 mod simd;
 pub mod tracking;
 pub mod trajectory;

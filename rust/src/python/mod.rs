@@ -15,6 +15,7 @@ mod identification;
 mod kalman;
 mod rowfilter;
 mod segment;
+mod sequence;
 mod threads;
 mod trajectory;
 
@@ -47,5 +48,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     kalman::register(m)?;
     filterbank::register(m)?;
     trajectory::register(m)?;
+    sequence::register(m)?;
     Ok(())
 }
