@@ -59,6 +59,8 @@ def test_filter_refuses_a_two_dimensional_array_and_accepts_iterables():
     f = kf.SequenceFilter(MODEL, 1.0, (6, 5))
     with pytest.raises(ValueError):
         f.filter(np.zeros((6, 5)))
+    with pytest.raises(TypeError):
+        f.filter(5)
     frames = np.random.default_rng(31).normal(size=(3, 6, 5))
     np.testing.assert_array_equal(f.filter(iter(list(frames))), f.filter(frames))
     uint8 = (np.arange(90).reshape(3, 6, 5) % 7).astype(np.uint8)

@@ -301,6 +301,10 @@ class SequenceFilter:
         """
         if isinstance(frames, np.ndarray) and frames.ndim != 3:
             raise ValueError(f"frames must be an (F, H, W) array, got {frames.ndim} axes")
+        if not isinstance(frames, Iterable):
+            raise TypeError(
+                f"frames must be an (F, H, W) array or an iterable of frames, got {frames!r}"
+            )
         fresh = self._fresh()
         out = [e for e in (fresh.step(f) for f in frames) if e is not None]
         out.extend(fresh.pending())
