@@ -206,7 +206,7 @@ class SequenceFilter:
         arr = real_array(frame, "frame")
         if arr.shape != self._shape:
             raise ValueError(f"the frame has shape {arr.shape}, expected {self._shape}")
-        return (arr - self._mean).ravel()
+        return (arr - self._mean if self._mean else arr).ravel()
 
     def step(self, frame: npt.ArrayLike) -> np.ndarray | None:
         """Take the next frame and return the estimate of the newest frame (of the frame
@@ -243,7 +243,8 @@ class SequenceFilter:
         estimate = self._core.step(values, self._threads)
         if estimate is None:
             return None
-        return estimate.reshape(self._shape) + self._mean
+        estimate = estimate.reshape(self._shape)
+        return estimate + self._mean if self._mean else estimate
 
     def pending(self) -> np.ndarray:
         """The estimates of the frames a smoother has not returned yet (the last `lag`
