@@ -171,7 +171,7 @@ impl ModalSequenceFilter {
     fn write_element(&self, element: usize, out: &mut [f64], work: &mut [f64]) {
         let d = self.dynamics.dim;
         let coefficients: Vec<f64> = self.means.chunks_exact(d).map(|m| m[element]).collect();
-        self.basis.from_modes(&coefficients, out, work);
+        self.basis.to_pixels(&coefficients, out, work);
     }
 
     /// The per-pixel error variance (row-major H × W) of the steady state: of the filtered

@@ -60,7 +60,7 @@ impl ModeBasis {
     }
 
     /// The frame U_y M U_xᵀ of mode coefficients `m` into `out`; `work` holds H·W values.
-    pub fn from_modes(&self, m: &[f64], out: &mut [f64], work: &mut [f64]) {
+    pub fn to_pixels(&self, m: &[f64], out: &mut [f64], work: &mut [f64]) {
         multiply(m, &self.uxt, work, self.width);
         multiply(&self.uy, work, out, self.width);
     }
@@ -101,7 +101,7 @@ mod tests {
         let z: Vec<f64> = (0..35).map(|k| ((k * 7919) % 13) as f64 - 6.0).collect();
         let (mut m, mut back, mut work) = (vec![0.0; 35], vec![0.0; 35], vec![0.0; 35]);
         basis.to_modes(&z, &mut m, &mut work);
-        basis.from_modes(&m, &mut back, &mut work);
+        basis.to_pixels(&m, &mut back, &mut work);
         for (a, b) in z.iter().zip(&back) {
             assert!((a - b).abs() < 1e-12);
         }
