@@ -197,8 +197,10 @@ class SequenceFilter:
 
     @property
     def error_model(self) -> ARFieldModel | None:
-        """The fast filter's spatial model of the prediction error (σ in units of the
-        field's σ; None for the exact filter)."""
+        """The fast filter's spatial model of the prediction error (None: exact filter).
+
+        Its σ is in units of the field's σ.
+        """
         return self._error_model
 
     # -- filtering ----------------------------------------------------------------------
@@ -209,8 +211,9 @@ class SequenceFilter:
         return (arr - self._mean if self._mean else arr).ravel()
 
     def step(self, frame: npt.ArrayLike) -> np.ndarray | None:
-        """Take the next frame and return the estimate of the newest frame (of the frame
-        `lag` steps back when smoothing).
+        """Take the next frame and return the estimate of the newest one.
+
+        With `lag` > 0 the estimate is that of the frame `lag` steps back.
 
         Parameters
         ----------
@@ -247,8 +250,10 @@ class SequenceFilter:
         return estimate + self._mean if self._mean else estimate
 
     def pending(self) -> np.ndarray:
-        """The estimates of the frames a smoother has not returned yet (the last `lag`
-        ones), each from every frame seen, oldest first; the stream goes on unchanged.
+        """The estimates of the frames a smoother has not returned yet.
+
+        The last `lag` frames, each from every frame seen, oldest first; the stream goes on
+        unchanged.
 
         Returns
         -------
@@ -271,8 +276,9 @@ class SequenceFilter:
         return self._core.pending().reshape(-1, h, w) + self._mean
 
     def filter(self, frames: npt.ArrayLike | Iterable[npt.ArrayLike]) -> np.ndarray:
-        """Estimate every frame of a sequence, from a fresh start (the stream of
-        :meth:`step` is left as it was).
+        """Estimate every frame of a sequence, from a fresh start.
+
+        The stream of :meth:`step` is left as it was.
 
         Parameters
         ----------
