@@ -5,7 +5,7 @@
 //! to the steady state (by the caller; frame 0, predicted by zero, uses the field's own
 //! spatial model).
 
-use super::{check_frame, check_model};
+use super::{check_model, check_step};
 use crate::error::{try_zeros, FieldError, Result};
 use crate::field::{AxisRecursion, FieldModel};
 use crate::rowfilter::{ModeSet, ScalarRowFilter};
@@ -74,13 +74,7 @@ impl FastSequenceFilter {
     /// writes the estimate of it into `out`.
     pub fn step(&mut self, z: &[f64], out: &mut [f64]) -> Result<()> {
         let size = self.frame_size();
-        let missing = check_frame(z, size)?;
-        if out.len() != size {
-            return Err(FieldError::Shape(format!(
-                "the output holds {} values, expected {size}",
-                out.len()
-            )));
-        }
+        let missing = check_step(z, out, size)?;
         let mut prediction = try_zeros(size, "a frame buffer")?;
         let seen = (self.frames as usize).min(self.recursion.order());
         let (coefficients, _) = self.recursion.at(seen);

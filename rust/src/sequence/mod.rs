@@ -28,8 +28,20 @@ pub(crate) fn check_model(model: &FieldModel) -> Result<()> {
     Ok(())
 }
 
+/// A step's frame (see [`check_frame`]) and output of H·W values; the count of missing pixels.
+pub(crate) fn check_step(frame: &[f64], out: &[f64], size: usize) -> Result<usize> {
+    let missing = check_frame(frame, size)?;
+    if out.len() != size {
+        return Err(FieldError::Shape(format!(
+            "the output holds {} values, expected {size}",
+            out.len()
+        )));
+    }
+    Ok(missing)
+}
+
 /// Every pixel of `frame` finite or NaN (a missing pixel); its size H·W.
-pub(crate) fn check_frame(frame: &[f64], size: usize) -> Result<usize> {
+fn check_frame(frame: &[f64], size: usize) -> Result<usize> {
     if frame.len() != size {
         return Err(FieldError::Shape(format!(
             "the frame holds {} values, expected {size}",

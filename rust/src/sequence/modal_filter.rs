@@ -6,7 +6,7 @@
 
 use super::mode_basis::ModeBasis;
 use super::mode_kalman::TemporalDynamics;
-use super::{check_frame, check_model, MAX_STATE_FRAMES};
+use super::{check_model, check_step, MAX_STATE_FRAMES};
 use crate::error::{try_zeros, FieldError, Result};
 use crate::field::FieldModel;
 use rayon::prelude::*;
@@ -84,13 +84,7 @@ impl ModalSequenceFilter {
     /// covariances go on as if the pixel had been observed (its error is understated).
     pub fn step(&mut self, z: &[f64], out: &mut [f64]) -> Result<bool> {
         let size = self.frame_size();
-        let missing = check_frame(z, size)?;
-        if out.len() != size {
-            return Err(FieldError::Shape(format!(
-                "the output holds {} values, expected {size}",
-                out.len()
-            )));
-        }
+        let missing = check_step(z, out, size)?;
         let mut work = try_zeros(size, "a frame buffer")?;
         let mut modes = try_zeros(size, "a frame buffer")?;
         self.predict();
