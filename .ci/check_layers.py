@@ -41,6 +41,7 @@ LAYERS = {
     "trajectory": 4,
     "template": 4,
     "denoising": 5,
+    "sequence": 5,
     "tracking": 6,
     "python": 7,
 }

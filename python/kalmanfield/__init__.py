@@ -28,6 +28,7 @@ from .identification import (
     yule_walker,
 )
 from .rowfilter import ScalarRowFilter, VectorRowFilter, wiener_bound, wiener_error_map
+from .sequence import SequenceFilter
 from .template import TemplateTracker, TemplateUpdate, match_template
 from .tracking import BranchingTracker, TrackerConfig, link, segment
 from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
@@ -44,6 +45,7 @@ __all__ = [
     "KalmanFilterCV",
     "LinearGaussianModel",
     "ScalarRowFilter",
+    "SequenceFilter",
     "TemplateTracker",
     "TemplateUpdate",
     "TrackerConfig",

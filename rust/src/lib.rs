@@ -17,6 +17,7 @@ mod image;
 pub mod kalman;
 pub mod linalg;
 pub mod rowfilter;
+pub mod sequence;
 mod simd;
 pub mod template;
 pub mod tracking;

@@ -31,6 +31,7 @@ from ..identification.from_noisy import model_from_noisy
 from ..rowfilter.base import row_model
 from ..rowfilter.scalar import ScalarRowFilter, check_row_models
 from ..rowfilter.vector import VectorRowFilter
+from .temporal import denoise_sequence
 
 #: Model of the normalised detail field of the adaptive denoiser (see :func:`denoise`),
 #: chosen on scikit-image training images other than the benchmark's (method page
@@ -240,6 +241,7 @@ def denoise(
     threads: int | None = None,
     row_models: Literal["nominal", "propagated", "implied"] = "nominal",
     adaptive: bool | None = None,
+    temporal: bool = False,
 ) -> np.ndarray:
     """Denoise an image or a stack of z = x + θ, θ white, by the row Kalman filters.
 
@@ -293,6 +295,11 @@ def denoise(
         :class:`ScalarRowFilter`).
     adaptive : bool, optional
         Deprecated: use ``method="adaptive"`` or ``method="stationary"``.
+    temporal : bool, default False
+        Filter an (F, H, W) stack in space and time with :class:`SequenceFilter` (its
+        method "auto"): `model` (axes t, y, x), the noise level and `mean` are fitted to the
+        stack where not given; `method`, `smooth`, `window` and the detail options do not
+        apply. Not the default for 3-D input: a stack may hold independent images.
 
     Returns
     -------
@@ -350,12 +357,17 @@ def denoise(
     )
     nv = _noise_level(noise_var, sigma)
     mean = None if mean is None else real_number(mean, "mean")
-    if model is not None:
+    if model is not None and not temporal:
         row_model(model)
     raw = image if isinstance(image, np.ndarray) else np.asarray(image)
     z = real_array(image, "image")
     if mask is not None:
         z = np.where(boolean_mask(mask, z.shape, "image"), np.nan, z)
+    if temporal:
+        if channel_axis is not None:
+            raise ValueError("temporal=True takes a grey (F, H, W) stack, not channel_axis")
+        out = denoise_sequence(images(z, missing=True), nv, model, mean, options.threads)
+        return _as_input(out, raw, clip)
     axis = check_channel_axis(channel_axis, z.ndim)
     grey = functools.partial(_denoise_grey, nv=nv, model=model, mean=mean, options=options)
     if axis is None:

@@ -15,6 +15,7 @@ mod identification;
 mod kalman;
 mod rowfilter;
 mod segment;
+mod sequence;
 mod template;
 mod threads;
 mod trajectory;
@@ -48,6 +49,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     kalman::register(m)?;
     filterbank::register(m)?;
     trajectory::register(m)?;
+    sequence::register(m)?;
     template::register(m)?;
     Ok(())
 }

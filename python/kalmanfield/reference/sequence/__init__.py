@@ -1,0 +1,1 @@
+"""Twins of the sequence filters (method page *Sequence filter*, §2.5)."""

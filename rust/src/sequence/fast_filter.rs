@@ -1,0 +1,145 @@
+//! The fast filter over frames (SPEC §2.5, the row filters' idea carried into time), O(H·W)
+//! per frame: the prediction of frame t from the previous estimates by the time axis'
+//! recursion, then the smoothed quasi-optimal row filter (SPEC §2.3) of the prediction
+//! error u = x_t − x̂_e,t from y = z_t − x̂_e,t = u + θ, with a separable model of u fitted
+//! to the steady state (by the caller; frame 0, predicted by zero, uses the field's own
+//! spatial model).
+
+use super::{check_model, check_step};
+use crate::error::{try_zeros, FieldError, Result};
+use crate::field::{AxisRecursion, FieldModel};
+use crate::rowfilter::{ModeSet, ScalarRowFilter};
+
+/// The streaming fast filter of a 3-axis model.
+#[derive(Debug)]
+pub struct FastSequenceFilter {
+    /// Row filters of frame 0 (the field's spatial model) and of the later frames (the
+    /// model of the steady prediction error).
+    first: ScalarRowFilter,
+    steady: ScalarRowFilter,
+    /// The time axis' stationary-start recursion: position t < n_t predicts from t frames.
+    recursion: AxisRecursion<f64>,
+    noise_var: f64,
+    height: usize,
+    /// The last n_t estimates, newest first (frame-major).
+    history: Vec<f64>,
+    frames: u64,
+}
+
+impl FastSequenceFilter {
+    /// The filter of `model` (axes t, y, x) for height × width frames with noise variance
+    /// `noise_var`; `error_model`: the 2-axis model of the steady prediction error.
+    pub fn new(
+        model: &FieldModel,
+        error_model: &FieldModel,
+        noise_var: f64,
+        height: usize,
+        width: usize,
+    ) -> Result<Self> {
+        check_model(model)?;
+        if height == 0 || width == 0 {
+            return Err(FieldError::Shape("the frames must not be empty".into()));
+        }
+        let axes = model.axes();
+        let spatial = FieldModel::new(
+            &[axes[1].rho(), axes[2].rho()],
+            &[axes[1].order(), axes[2].order()],
+            model.sigma(),
+        )?;
+        let row_filter =
+            |m: &FieldModel| ScalarRowFilter::new(m, noise_var, width, None, ModeSet::Ends);
+        let n_t = axes[0].order();
+        Ok(Self {
+            first: row_filter(&spatial)?,
+            steady: row_filter(error_model)?,
+            recursion: AxisRecursion::new(&axes[0], 1.0)?,
+            noise_var,
+            height,
+            history: try_zeros(n_t * height * width, "the previous estimates")?,
+            frames: 0,
+        })
+    }
+
+    /// H·W.
+    pub fn frame_size(&self) -> usize {
+        self.history.len() / self.recursion.order()
+    }
+
+    /// Frames seen so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Takes the next frame `z` (NaN = missing pixel: weight 0 in the row filter) and
+    /// writes the estimate of it into `out`.
+    pub fn step(&mut self, z: &[f64], out: &mut [f64]) -> Result<()> {
+        let size = self.frame_size();
+        let missing = check_step(z, out, size)?;
+        let mut prediction = try_zeros(size, "a frame buffer")?;
+        let seen = (self.frames as usize).min(self.recursion.order());
+        let (coefficients, _) = self.recursion.at(seen);
+        for (a, previous) in coefficients.iter().zip(self.history.chunks_exact(size)) {
+            for (p, &v) in prediction.iter_mut().zip(previous) {
+                *p += a * v;
+            }
+        }
+        let residual: Vec<f64> = z
+            .iter()
+            .zip(&prediction)
+            .map(|(&v, &p)| if v.is_nan() { 0.0 } else { v - p })
+            .collect();
+        let weights = (missing > 0).then(|| {
+            z.iter()
+                .map(|v| {
+                    if v.is_nan() {
+                        0.0
+                    } else {
+                        1.0 / self.noise_var
+                    }
+                })
+                .collect::<Vec<_>>()
+        });
+        let filter = if self.frames == 0 {
+            &self.first
+        } else {
+            &self.steady
+        };
+        filter.filter_image(&residual, weights.as_deref(), out, self.height, true)?;
+        for (o, p) in out.iter_mut().zip(&prediction) {
+            *o += p;
+        }
+        let kept = self.history.len() - size;
+        self.history.copy_within(0..kept, size);
+        self.history[..size].copy_from_slice(out);
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// The steady row filter's own per-pixel error variance map (row-major H × W): the
+    /// error the filter assumes, with the fitted model of the prediction error.
+    pub fn error_variance(&self) -> Result<Vec<f64>> {
+        self.steady.error_variance(self.height, None)
+    }
+
+    /// The state to save: (frames seen, the last n_t estimates).
+    pub fn state(&self) -> (u64, &[f64]) {
+        (self.frames, &self.history)
+    }
+
+    /// Restores a state saved by [`Self::state`] of a filter built with the same arguments.
+    pub fn set_state(&mut self, frames: u64, history: &[f64]) -> Result<()> {
+        if history.len() != self.history.len() {
+            return Err(FieldError::Shape(
+                "the saved state does not fit this filter (other frame shape or order)".into(),
+            ));
+        }
+        if history.iter().any(|v| !v.is_finite()) {
+            return Err(FieldError::NonFinite(
+                "the saved state holds NaN or infinite values".into(),
+            ));
+        }
+        self.history.copy_from_slice(history);
+        self.frames = frames;
+        Ok(())
+    }
+}
