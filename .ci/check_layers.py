@@ -40,7 +40,8 @@ LAYERS = {
     "trajectory": 4,
     "denoising": 5,
     "tracking": 6,
-    "python": 7,
+    "extended": 7,
+    "python": 8,
 }
 
 IDENT = r"[A-Za-z_][A-Za-z0-9_]*"

@@ -12,6 +12,14 @@ documentation give the formulas and sources.
 
 from . import _compat
 from .denoising import denoise, estimate_noise_var, estimate_sigma, local_moments
+from .extended import (
+    DetectedObject,
+    MovingObjectDetector,
+    Scene,
+    Target,
+    detect_moving_objects,
+    simulate_scene,
+)
 from .field import ARFieldModel, FieldStream, sample_product_field
 from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import (
@@ -33,19 +41,24 @@ __all__ = [
     "AxisFit",
     "BranchingTracker",
     "ChangeDetector",
+    "DetectedObject",
     "FieldStream",
     "FuzzyFilter",
     "IMMEstimator",
     "IdentifiedModel",
     "KalmanFilterCV",
     "LinearGaussianModel",
+    "MovingObjectDetector",
     "ScalarRowFilter",
+    "Scene",
+    "Target",
     "TrackerConfig",
     "TypeIdentifier",
     "VectorRowFilter",
     "WhitenessTest",
     "YuleWalkerModel",
     "denoise",
+    "detect_moving_objects",
     "effective_memory",
     "estimate_noise_var",
     "estimate_sigma",
@@ -56,6 +69,7 @@ __all__ = [
     "sample_correlation",
     "sample_product_field",
     "segment",
+    "simulate_scene",
     "wiener_bound",
     "wiener_error_map",
     "yule_walker",

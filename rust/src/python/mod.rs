@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 mod branching;
 mod convert;
 mod denoising;
+mod extended;
 mod field;
 mod filterbank;
 mod identification;
@@ -47,5 +48,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     kalman::register(m)?;
     filterbank::register(m)?;
     trajectory::register(m)?;
+    extended::register(m)?;
     Ok(())
 }
