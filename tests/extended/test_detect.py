@@ -119,7 +119,7 @@ def test_nan_pixels_are_missing():
 @pytest.mark.parametrize(
     ("frames", "kwargs", "error", "match"),
     [
-        (np.zeros((1, 8, 8)), {}, ValueError, "at least 2 frames"),
+        (np.zeros((1, 8, 8)), {"noise_std": 1.0}, ValueError, "at least 2 frames"),
         (np.zeros((8, 8)), {}, ValueError, "F, H, W"),
         ([np.zeros((8, 8)), np.zeros((9, 8))], {"noise_std": 1.0}, ValueError, "shape"),
         ([np.zeros((8, 8)), np.zeros((8, 8), np.float32)], {"noise_std": 1.0}, ValueError, "dtype"),

@@ -119,8 +119,12 @@ def test_vanishing_and_new_fragments_and_background_spot():
     for t, a in enumerate(answers):
         if t >= 3:
             assert not a["segment_member"][-1]
-            # the spot started a sequence inside the object's group (it was in the gate)
+        if t == 3:
+            # the spot started a sequence inside the object's group (it was in the gate) …
             assert a["segment_group"][-1] == a["segment_group"][0]
+        if t >= 6:
+            # … which left the group once longer than ν + 1 with its own (zero) velocity
+            assert a["segment_group"][-1] != a["segment_group"][0]
     # the vanished fragment's sequence is dropped; the new fragment's sequence becomes a
     # member once longer than ν + 1 = 2 frames (frames 7, 8, 9 → member at 9)
     new = [a["segment_sequence"][2] for a in answers[7:]]
@@ -139,10 +143,14 @@ def test_merge_rule_length_and_nonzero_velocity():
     assert [int(a["segment_member"].sum()) for a in moving] == [0, 0, 3, 3]
     _, still = step_all([obj(t, (10.0, 10.0), (0.0, 0.0)) for t in range(6)])
     assert all(not a["segment_member"].any() for a in still)
-    # a fragment moving with another velocity is never a member of the group
+    # a fragment moving with another velocity is never a member of the object's group: once
+    # longer than ν + 1 it leaves and becomes an object of its own
     frames = [obj(t, (10.0, 10.0), (2.0, 0.0)) + [blob(8.0 + 0.5 * t, 13.0)] for t in range(8)]
     _, answers = step_all(frames)
-    assert not any(a["segment_member"][3] for a in answers)
+    for a in answers:
+        g = a["segment_group"]
+        assert not (a["segment_member"][3] and g[3] == g[0])
+    assert all(a["segment_group"][3] != a["segment_group"][0] for a in answers[3:])
 
 
 def test_features_join_the_index_after_order_plus_one_frames():

@@ -26,12 +26,15 @@ class DetectedObject:
         The frame shape (H, W).
     score : float
         The ranking score (see Notes).
+    id : int, default -1
+        The object's id in the detector (stage-2 group, or stage-1 track).
 
     Notes
     -----
-    ``score`` is the number of frames in which the object was detected (it had at least one
-    fragment sequence longer than ν + 1 moving with the group); :func:`detect_moving_objects`
-    ranks by it, then by mean speed (the object is assumed faster than moving background).
+    ``score`` is the path length Σ |v| τ (pixels) travelled over the frames in which the object
+    was detected (it had at least one fragment sequence longer than ν + 1 moving with the
+    group): an object seen longer and moving faster ranks higher, moving background being
+    assumed slower than the object (the source's Remark 1).
     Method page :doc:`/methods/extended_objects`, §3.4.
 
     Examples
@@ -53,7 +56,9 @@ class DetectedObject:
         pixels: dict[int, np.ndarray],
         shape: tuple[int, int],
         score: float,
+        id: int = -1,
     ) -> None:
+        self.id = int(id)
         self.track = track
         self.fragments = fragments
         self._pixels = pixels

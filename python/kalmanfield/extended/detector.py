@@ -21,7 +21,7 @@ from .options import DetectorOptions
 __all__ = ["MovingObjectDetector", "detect_moving_objects"]
 
 _MODES = ("auto", "point", "extended")
-#: "auto": the first frame's median segment area above this (pixels) means extended objects
+#: "auto": a segment of the first frame larger than this (pixels) means extended objects
 POINT_AREA = 9.0
 _FRAGMENT_COLUMNS = ["frame", "fragment", "x", "y", "amplitude", "area"]
 _TRACK_COLUMNS = ["frame", "x", "y", "vx", "vy"]
@@ -106,6 +106,11 @@ class MovingObjectDetector:
         return self._mode
 
     @property
+    def order(self) -> int:
+        """The centroid motion order ν."""
+        return self._options.order
+
+    @property
     def noise_std(self) -> float | None:
         """The noise std given or estimated from the first frame."""
         return self._noise_std
@@ -135,7 +140,7 @@ class MovingObjectDetector:
 
     def _start(self, table: np.ndarray) -> None:
         if self._mode == "auto":
-            extended = len(table) > 0 and float(np.median(table[:, 3])) > POINT_AREA
+            extended = len(table) > 0 and float(np.max(table[:, 3])) > POINT_AREA
             self._mode = "extended" if extended else "point"
         assert self._noise_std is not None
         config = self._options.core_config(
@@ -206,9 +211,13 @@ class MovingObjectDetector:
             fragments = pd.DataFrame(rec.fragments, columns=_FRAGMENT_COLUMNS).astype(
                 {"frame": np.int64, "fragment": np.int64}
             )
-            out.append(DetectedObject(track, fragments, dict(rec.pixels), self._check.shape, len(track)))
-            out[-1].id = gid  # type: ignore[attr-defined]
+            out.append(DetectedObject(track, fragments, dict(rec.pixels), self._check.shape,
+                                      self._score(track), id=gid))
         return _ranked(out)
+
+    def _score(self, track: pd.DataFrame) -> float:
+        """Path length travelled while detected: Σ |v| τ over the detected frames (pixels)."""
+        return float(np.hypot(track["vx"], track["vy"]).sum() * self._dt)
 
     def _point_objects(self) -> list[DetectedObject]:
         tracks = self._core.tracks()
@@ -230,7 +239,8 @@ class MovingObjectDetector:
                 [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows], columns=_FRAGMENT_COLUMNS
             ).astype({"frame": np.int64, "fragment": np.int64})
             pixels = {int(r[0]): r[5] for r in rows}
-            out.append(DetectedObject(track, fragments, pixels, self._check.shape, len(track)))
+            out.append(DetectedObject(track, fragments, pixels, self._check.shape,
+                                      self._score(track), id=int(particle)))
         return _ranked(out)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -252,10 +262,7 @@ class MovingObjectDetector:
 
 
 def _ranked(objects: list[DetectedObject]) -> list[DetectedObject]:
-    def speed(o: DetectedObject) -> float:
-        return float(np.hypot(o.track["vx"], o.track["vy"]).mean()) if len(o.track) else 0.0
-
-    return sorted(objects, key=lambda o: (-o.score, -speed(o)))
+    return sorted(objects, key=lambda o: (-o.score, -len(o.track), o.id))
 
 
 def detect_moving_objects(
@@ -288,22 +295,24 @@ def detect_moving_objects(
         N: index increments kept (N + 1 observations).
     mode : {"auto", "point", "extended"}, default "auto"
         "point": stage 1 only (the branching tracker on the segment centroids, one fragment per
-        object); "extended": stage 2 from the first frame; "auto": "extended" when the median
-        area of the first frame's segments exceeds 9 pixels, else "point".
+        object); "extended": stage 2 from the first frame; "auto": "extended" when a segment
+        of the first frame exceeds 9 pixels, else "point".
     threshold : float, optional
         Segmentation threshold on the smoothed frame. When None, per frame: the median of the
         smoothed frame + ``threshold_k`` × σ / ``smooth`` (the noise std after the
         ``smooth`` × ``smooth`` box mean).
     **options
-        Fields of ``DetectorOptions`` (smooth=3, threshold_k=2.0, min_area=3,
+        Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, min_area=3,
         connectivity=8, order=1, position_std=1.0, process_std, amplitude_std,
-        log_area_std=0.5, feature_drift=0.5, initial_speed_std, gate_margin=3.0,
+        log_area_std=0.5, feature_drift=0.5, initial_speed_std, gate_margin=2.0,
         min_speed, velocity_tolerance, max_misses=2); see the method page.
 
     Returns
     -------
     list of DetectedObject
-        Best first (most frames detected, then fastest).
+        Best first: by score, the path length Σ |v| τ travelled while detected (an object
+        seen longer and moving faster ranks higher: moving background is assumed slower than
+        the object, the source's Remark 1), then by frames detected.
 
     Raises
     ------
@@ -349,6 +358,9 @@ def detect_moving_objects(
         raise ValueError(f"frames must be an (F, H, W) array or an iterable of 2-D frames, got {frames.ndim}-D")
     for frame in frames:
         detector.update(frame)
-    if detector.frame < 2:
-        raise ValueError(f"need at least 2 frames (the motion order ν + 1), got {detector.frame}")
+    needed = detector.order + 1
+    if detector.frame < needed:
+        raise ValueError(
+            f"need at least {needed} frames (the motion order ν + 1), got {detector.frame}"
+        )
     return detector.objects()

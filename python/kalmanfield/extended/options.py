@@ -18,7 +18,7 @@ class DetectorOptions:
     #: box-smoothing width applied before thresholding (1 = none)
     smooth: int = 3
     #: threshold = median of the smoothed frame + threshold_k × noise std of the smoothed frame
-    threshold_k: float = 2.0
+    threshold_k: float = 3.0
     #: segments of fewer pixels are dropped
     min_area: int = 3
     connectivity: int = 8
@@ -34,10 +34,10 @@ class DetectorOptions:
     feature_drift: float = 0.5
     #: prior std of a new fragment's own velocity; default 3 px per frame
     initial_speed_std: float | None = None
-    gate_margin: float = 3.0
+    gate_margin: float = 2.0
     #: a member's speed must exceed it; default 0.25 px per frame
     min_speed: float | None = None
-    #: members' velocities agree within it; default 1 px per frame
+    #: members' velocities agree within it; default 0.5 px per frame
     velocity_tolerance: float | None = None
     max_misses: int = 2
 
@@ -79,7 +79,7 @@ class DetectorOptions:
             "initial_speed_std": per_frame(self.initial_speed_std, 3.0),
             "gate_margin": float(self.gate_margin),
             "min_speed": per_frame(self.min_speed, 0.25),
-            "velocity_tolerance": per_frame(self.velocity_tolerance, 1.0),
+            "velocity_tolerance": per_frame(self.velocity_tolerance, 0.5),
             "max_misses": self.max_misses,
             "seed_groups": seed_groups,
         }

@@ -222,7 +222,8 @@ def simulate_scene(
         Clutter spots in a frame that has clutter.
     still_objects, moving_objects : int, default 1
         Foreign objects, deterministic over the scene: rhombi of the target's size and
-        brightness, placed uniformly (at least `size` from the border); the moving ones move
+        brightness, placed uniformly (at least `size` from the border, and at least 2 × `size`
+        from every target centre in every frame: redrawn up to 100 times); the moving ones move
         at a constant velocity of 0.3 × the first target's mean speed in a random direction
         (slower than the target, the source's Remark 1).
 
@@ -282,7 +283,8 @@ def simulate_scene(
             masks[mu, k] = m
             frames[mu] += amplitude * m * bright
             rows.append((mu, k, pos[mu, 0], pos[mu, 1], vel[mu, 0], vel[mu, 1]))
-    _foreign(frames, grid, rng, amplitude, still_objects, moving_objects, mean_speed or 0.0, dt)
+    paths = np.array([[r[2], r[3]] for r in rows]).reshape(len(tlist), n, 2) if tlist else None
+    _foreign(frames, grid, rng, amplitude, still_objects, moving_objects, mean_speed or 0.0, dt, paths)
     clutter = np.zeros(n, dtype=np.int64)
     for mu in range(n):
         if rng.uniform() < p_false:
@@ -307,15 +309,22 @@ def _spot(frame: np.ndarray, grid, rng: np.random.Generator, amplitude: float) -
     frame[(u / a) ** 2 + (v / b) ** 2 <= 1.0] += rng.uniform(0.5, 1.5) * amplitude
 
 
-def _foreign(frames, grid, rng, amplitude, still, moving, speed, dt) -> None:
+def _foreign(frames, grid, rng, amplitude, still, moving, speed, dt, paths) -> None:
+    """Foreign rhombi kept at least 2 × size from every target centre in every frame (up to
+    100 draws each; the last draw is kept if none is that far)."""
     n, h, w = frames.shape
     size = 10.0
+    steps = np.arange(n)[:, None] * dt
     for k in range(nonnegative_int(still, "still_objects") + nonnegative_int(moving, "moving_objects")):
-        c = np.array([rng.uniform(size, max(w - size, size + 1)), rng.uniform(size, max(h - size, size + 1))])
-        v = np.zeros(2)
-        if k >= still:
-            a = rng.uniform(0, 2 * math.pi)
-            v = 0.3 * speed * np.array([math.cos(a), math.sin(a)])
+        for _ in range(100):
+            c = np.array([rng.uniform(size, max(w - size, size + 1)), rng.uniform(size, max(h - size, size + 1))])
+            v = np.zeros(2)
+            if k >= still:
+                a = rng.uniform(0, 2 * math.pi)
+                v = 0.3 * speed * np.array([math.cos(a), math.sin(a)])
+            path = c + v * steps
+            if paths is None or np.hypot(*(paths - path).transpose(2, 0, 1)).min() >= 2 * size:
+                break
         for mu in range(n):
             p = c + v * mu * dt
             frames[mu] += amplitude * target_mask("rhombus", size, p[0], p[1], grid)

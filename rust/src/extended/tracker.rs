@@ -152,6 +152,7 @@ impl GroupTracker {
         let chosen = self.variants_chosen(segments);
         self.apply_assignment(segments, &chosen);
         self.refresh_groups(segments);
+        self.split_groups(segments);
         self.start_new(segments, &mut answer);
         answer.merged = self.merge_groups();
         self.report(segments, &mut answer);
@@ -245,6 +246,36 @@ impl GroupTracker {
             }
         }
         self.groups.retain(|g| g.misses <= config.max_misses);
+    }
+
+    /// A confirmed sequence longer than ν + 1 whose own velocity lies beyond
+    /// `velocity_tolerance` from its group's leaves it and starts a group of its own, with its
+    /// own derivatives (two objects that were born touching part; the merge rule joins
+    /// groups again when they agree).
+    fn split_groups(&mut self, segments: &[Measurement]) {
+        let config = self.config.clone();
+        let mut leaving = Vec::new();
+        for group in &mut self.groups {
+            let shared = velocity(&group.shared);
+            let (stay, go): (Vec<_>, Vec<_>) = group.sequences.drain(..).partition(|s| {
+                s.length <= config.order + 1
+                    || distance(velocity(&s.state), shared) <= config.velocity_tolerance
+            });
+            group.sequences = stay;
+            leaving.extend(go);
+        }
+        for s in leaving {
+            let mut shared = s.state;
+            shared[0][0] = 0.0;
+            shared[1][0] = 0.0;
+            let bbox = s.segment.map_or([s.state[0][0], s.state[1][0], s.state[0][0], s.state[1][0]], |r| {
+                segments[r].bbox
+            });
+            self.new_group(shared, bbox);
+            if let Some(g) = self.groups.last_mut() {
+                g.sequences.push(s);
+            }
+        }
     }
 
     /// Step 8: segments left alone start sequences in the group whose gate holds them (the

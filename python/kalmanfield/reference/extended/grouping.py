@@ -233,10 +233,27 @@ class GroupTracker:
                 box = self._union(box, b)
             g.bbox = box
         self.groups = [g for g in self.groups if g.misses <= c["max_misses"]]
+        self._split(z_all)
         self._start_new(z_all, seg_group, seg_seq)
         merged = self._merge()
         groups = self._report(z_all, seg_group, seg_seq, seg_member)
         return seg_group, seg_seq, seg_member, groups, merged
+
+    def _split(self, z_all) -> None:
+        c = self.c
+        leaving = []
+        for g in self.groups:
+            shared = g.shared[:, 1].copy()
+            stay = []
+            for s in g.sequences:
+                near = math.hypot(*(s.state[:, 1] - shared)) <= c["velocity_tolerance"]
+                (stay if s.length <= c["order"] + 1 or near else leaving).append(s)
+            g.sequences = stay
+        for s in leaving:
+            shared = s.state.copy()
+            shared[:, 0] = 0.0
+            self.groups.append(Group(self.next_group, shared, [s], z_all[s.segment, 4:8].copy()))
+            self.next_group += 1
 
     def _start_new(self, z_all, seg_group, seg_seq) -> None:
         c = self.c
