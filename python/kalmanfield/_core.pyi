@@ -362,6 +362,7 @@ def extended_assign(
     segment: npt.NDArray[np.int64],
     index: npt.NDArray[np.float64],
 ) -> npt.NDArray[np.int64]: ...
+
 @final
 class GroupTracker:
     def __new__(

@@ -86,8 +86,17 @@ def test_pickle_mid_scene_resumes_exactly():
 
 def test_fragmented_target_keeps_one_id():
     target = kf.Target(fragments=4, p_vanish=0.3)
-    s = kf.simulate_scene((64, 64), 12, targets=[target], snr=6.0, p_false=0.0, dt=0.1, seed=5,
-                          still_objects=0, moving_objects=0)
+    s = kf.simulate_scene(
+        (64, 64),
+        12,
+        targets=[target],
+        snr=6.0,
+        p_false=0.0,
+        dt=0.1,
+        seed=5,
+        still_objects=0,
+        moving_objects=0,
+    )
     objects = kf.detect_moving_objects(s.frames, noise_std=1.0, dt=0.1)
     assert objects[0].score >= 8  # detected as one object in most frames
     assert objects[0].fragments["fragment"].nunique() >= 2

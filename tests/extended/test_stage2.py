@@ -97,7 +97,9 @@ def test_assignment_equals_twin():
         chosen = list(zip(seq[got], seg[got]))
         assert len({s for s, _ in chosen}) == len(chosen) == len({r for _, r in chosen})
     # the greedy rule by hand: (0,0)=1 is taken first, which deletes (0,1) and (1,0)
-    got = _core.extended_assign(np.array([0, 0, 1, 1]), np.array([1, 0, 0, 1]), np.array([2.0, 1.0, 1.5, 5.0]))
+    got = _core.extended_assign(
+        np.array([0, 0, 1, 1]), np.array([1, 0, 0, 1]), np.array([2.0, 1.0, 1.5, 5.0])
+    )
     assert list(got) == [1, 3]
 
 
@@ -110,7 +112,9 @@ def test_vanishing_and_new_fragments_and_background_spot():
     v = (1.5, 0.5)
     frames = []
     for t in range(12):
-        offsets = OFFSETS if t < 5 else OFFSETS[:2] if t < 7 else np.vstack([OFFSETS[:2], [[0.0, -3.0]]])
+        offsets = (
+            OFFSETS if t < 5 else OFFSETS[:2] if t < 7 else np.vstack([OFFSETS[:2], [[0.0, -3.0]]])
+        )
         rows = obj(t, (10.0, 20.0), v, offsets)
         if t >= 3:
             rows.append(blob(20.0, 23.0))  # a still spot inside the object gate
@@ -160,7 +164,9 @@ def test_features_join_the_index_after_order_plus_one_frames():
         frames = []
         for t in range(4):
             half = 3.0 if t == change_at else 1.0
-            frames.append([blob(10.0 + 2 * t, 10.0, half=half, amplitude=10.0 if t != change_at else 40.0)])
+            frames.append(
+                [blob(10.0 + 2 * t, 10.0, half=half, amplitude=10.0 if t != change_at else 40.0)]
+            )
         _, answers = step_all(frames, dict(CONFIG, seed_groups=True))
         return [int(a["segment_sequence"][0]) for a in answers]
 
@@ -201,7 +207,13 @@ def test_state_bytes_resume_exactly_and_refuse_corruption():
 
 @pytest.mark.parametrize(
     "change",
-    [dict(order=0), dict(dt=0.0), dict(confidence=1.0), dict(memory=0), dict(position_std=float("nan"))],
+    [
+        dict(order=0),
+        dict(dt=0.0),
+        dict(confidence=1.0),
+        dict(memory=0),
+        dict(position_std=float("nan")),
+    ],
 )
 def test_bad_configuration(change):
     with pytest.raises((ValueError, OverflowError)):

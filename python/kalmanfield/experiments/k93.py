@@ -34,11 +34,14 @@ def wilson(k: int, n: int, z: float = _Z95) -> tuple[float, float]:
     return (centre - half, centre + half)
 
 
-def k93_correct(objects: list, truth: pd.DataFrame, *, sigma_position: float = 1.0,
-                sigma_velocity: float = 10.0) -> bool:
-    """The 3σ rule: the best-ranked object is detected in the last frame, its centre there
-    lies within 3 σ_position of the true centre on each axis, and its velocity within
-    3 σ_velocity of the true velocity on each axis.
+def k93_correct(
+    objects: list, truth: pd.DataFrame, *, sigma_position: float = 1.0, sigma_velocity: float = 10.0
+) -> bool:
+    """Judge one run of the source's experiment by the 3σ rule.
+
+    Correct when the best-ranked object is detected in the last frame, its centre there lies
+    within 3 σ_position of the true centre on each axis, and its velocity within 3 σ_velocity
+    of the true velocity on each axis.
 
     Parameters
     ----------
@@ -142,15 +145,27 @@ def k93(
         seeds = child.generate_state(runs, dtype=np.uint64)
         correct = 0
         for r in range(runs):
-            scene = simulate_scene((64, 64), n_frames, targets=1, snr=s, p_false=p, dt=0.1,
-                                   background=background, seed=int(seeds[r]))
+            scene = simulate_scene(
+                (64, 64),
+                n_frames,
+                targets=1,
+                snr=s,
+                p_false=p,
+                dt=0.1,
+                background=background,
+                seed=int(seeds[r]),
+            )
             options = {"noise_std": 1.0, "dt": 0.1, **detector}
             correct += k93_correct(detect_moving_objects(scene.frames, **options), scene.truth)
             bar.update()
         low, high = wilson(correct, runs)
-        rows.append((s, p, runs, correct, correct / runs, low, high, SOURCE_P_O.get((s, p), math.nan)))
+        rows.append(
+            (s, p, runs, correct, correct / runs, low, high, SOURCE_P_O.get((s, p), math.nan))
+        )
     bar.close()
-    return pd.DataFrame(rows, columns=["snr", "p_false", "runs", "correct", "p_o", "low", "high", "source"])
+    return pd.DataFrame(
+        rows, columns=["snr", "p_false", "runs", "correct", "p_o", "low", "high", "source"]
+    )
 
 
 def plot_k93(table: pd.DataFrame, ax: Any = None) -> Any:

@@ -45,7 +45,7 @@ class DetectedObject:
     >>> track = pd.DataFrame({"frame": [0, 1], "x": [1.0, 2.0], "y": [1.0, 1.0],
     ...                       "vx": [1.0, 1.0], "vy": [0.0, 0.0]})
     >>> obj = kf.DetectedObject(track, pd.DataFrame(), {1: np.array([5, 6])}, (4, 4), 2.0)
-    >>> int(obj.mask(1).sum()), list(obj.frames)
+    >>> int(obj.mask(1).sum()), obj.frames.tolist()
     (2, [0, 1])
     """
 
@@ -78,8 +78,24 @@ class DetectedObject:
         return self.track[["vx", "vy"]].to_numpy()[-1].copy()
 
     def mask(self, frame_index: int) -> np.ndarray:
-        """Bool image of the object in frame `frame_index`: the union of its segments (all
-        False where it was not detected)."""
+        """Return the bool image of the object in one frame.
+
+        Parameters
+        ----------
+        frame_index : int
+            The frame number.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W) bool: the union of the object's segments, all False where it was not
+            detected.
+
+        Raises
+        ------
+        TypeError
+            A non-integer `frame_index`.
+        """
         if isinstance(frame_index, bool) or not isinstance(frame_index, (int, np.integer)):
             raise TypeError(f"frame_index must be an integer, got {type(frame_index).__name__}")
         out = np.zeros(self._shape[0] * self._shape[1], dtype=bool)

@@ -5,7 +5,7 @@ twin :mod:`kalmanfield.reference.extended`), or stage 1 alone (the branching tra
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -15,7 +15,7 @@ from .. import _core
 from .._validation import positive_float, positive_int, probability, real_number
 from ..tracking import BranchingTracker
 from .detected import DetectedObject
-from .frames import FrameCheck, box_smooth, noise_level, segment_frame
+from .frames import FrameCheck, background_level, box_smooth, noise_level, segment_frame
 from .options import DetectorOptions
 
 __all__ = ["MovingObjectDetector", "detect_moving_objects"]
@@ -44,8 +44,10 @@ class _Records:
 
 
 class MovingObjectDetector:
-    """The streaming form of :func:`detect_moving_objects`: feed frames with :meth:`update`,
-    read :meth:`objects` at any time; it pickles mid-scene and resumes exactly.
+    """The streaming form of :func:`detect_moving_objects`.
+
+    Feed frames with :meth:`update`, read :meth:`objects` at any time; it pickles mid-scene
+    and resumes exactly.
 
     Parameters
     ----------
@@ -102,7 +104,7 @@ class MovingObjectDetector:
 
     @property
     def mode(self) -> str:
-        """"point" or "extended" once the first frame decided "auto"; else the mode asked."""
+        """The mode: "point" or "extended" once the first frame decided "auto"."""
         return self._mode
 
     @property
@@ -116,17 +118,33 @@ class MovingObjectDetector:
         return self._noise_std
 
     def update(self, frame: npt.ArrayLike) -> None:
-        """Processes the next frame (2-D; the shape and dtype of the first)."""
+        """Process the next frame.
+
+        Parameters
+        ----------
+        frame : array_like
+            A 2-D frame of the shape and dtype of the first one (NaN pixels are missing).
+
+        Raises
+        ------
+        ValueError
+            A frame of another shape or dtype, not 2-D, with an infinite value or no finite
+            pixel.
+        TypeError
+            A non-numeric frame.
+        """
         image = self._check.frame(frame, self._frame)
         if self._noise_std is None:
             self._noise_std = noise_level(image)
             if not self._noise_std > 0:
-                raise ValueError("the noise std estimated from the first frame is 0: give noise_std")
+                raise ValueError(
+                    "the noise std estimated from the first frame is 0: give noise_std"
+                )
         k = self._options.smooth
         smoothed = box_smooth(image, k)
         threshold = self._threshold
         if threshold is None:
-            threshold = float(np.median(smoothed)) + self._options.threshold_k * self._noise_std / k
+            threshold = background_level(smoothed) + self._options.threshold_k * self._noise_std / k
         table, labels, label_image = segment_frame(
             smoothed, threshold, self._options.min_area, self._options.connectivity
         )
@@ -169,7 +187,9 @@ class MovingObjectDetector:
         rr, cc = np.nonzero(box)
         return ((rr + y0) * label_image.shape[1] + cc + x0).astype(np.int64)
 
-    def _update_groups(self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray) -> None:
+    def _update_groups(
+        self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
+    ) -> None:
         answer = self._core.step(table)
         for absorbed, into in answer["merged"]:
             if int(absorbed) in self._records:
@@ -193,14 +213,22 @@ class MovingObjectDetector:
                 parts.append(self._pixels(label_image, z, int(labels[r])))
             rec.pixels[self._frame] = np.sort(np.concatenate(parts))
 
-    def _update_points(self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray) -> None:
+    def _update_points(
+        self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
+    ) -> None:
         self._core.update(table[:, :2])
         for r, z in enumerate(table):
             pixels = self._pixels(label_image, z, int(labels[r]))
             self._points.append((self._frame, z[0], z[1], z[2], z[3], pixels))
 
     def objects(self) -> list[DetectedObject]:
-        """The objects found so far, best first (see :class:`DetectedObject`)."""
+        """Return the objects found so far, best first.
+
+        Returns
+        -------
+        list of DetectedObject
+            Ranked as by :func:`detect_moving_objects`.
+        """
         if self._check.shape is None:
             return []
         if self._mode == "point":
@@ -211,8 +239,16 @@ class MovingObjectDetector:
             fragments = pd.DataFrame(rec.fragments, columns=_FRAGMENT_COLUMNS).astype(
                 {"frame": np.int64, "fragment": np.int64}
             )
-            out.append(DetectedObject(track, fragments, dict(rec.pixels), self._check.shape,
-                                      self._score(track), id=gid))
+            out.append(
+                DetectedObject(
+                    track,
+                    fragments,
+                    dict(rec.pixels),
+                    self._check.shape,
+                    self._score(track),
+                    id=gid,
+                )
+            )
         return _ranked(out)
 
     def _score(self, track: pd.DataFrame) -> float:
@@ -236,11 +272,20 @@ class MovingObjectDetector:
                 }
             )
             fragments = pd.DataFrame(
-                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows], columns=_FRAGMENT_COLUMNS
+                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows],
+                columns=_FRAGMENT_COLUMNS,
             ).astype({"frame": np.int64, "fragment": np.int64})
             pixels = {int(r[0]): r[5] for r in rows}
-            out.append(DetectedObject(track, fragments, pixels, self._check.shape,
-                                      self._score(track), id=int(particle)))
+            out.append(
+                DetectedObject(
+                    track,
+                    fragments,
+                    pixels,
+                    self._check.shape,
+                    self._score(track),
+                    id=int(particle),
+                )
+            )
         return _ranked(out)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -299,8 +344,8 @@ def detect_moving_objects(
         of the first frame exceeds 9 pixels, else "point".
     threshold : float, optional
         Segmentation threshold on the smoothed frame. When None, per frame: the median of the
-        smoothed frame + ``threshold_k`` × σ / ``smooth`` (the noise std after the
-        ``smooth`` × ``smooth`` box mean).
+        smoothed frame (of every 4th row and column beyond 256² pixels) + ``threshold_k`` ×
+        σ / ``smooth`` (the noise std after the ``smooth`` × ``smooth`` box mean).
     **options
         Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, min_area=3,
         connectivity=8, order=1, position_std=1.0, process_std, amplitude_std,
@@ -355,8 +400,10 @@ def detect_moving_objects(
         **options,
     )
     if isinstance(frames, np.ndarray) and frames.ndim != 3:
-        raise ValueError(f"frames must be an (F, H, W) array or an iterable of 2-D frames, got {frames.ndim}-D")
-    for frame in frames:
+        raise ValueError(
+            f"frames must be an (F, H, W) array or an iterable of 2-D frames, got {frames.ndim}-D"
+        )
+    for frame in cast(Iterable[Any], frames):
         detector.update(frame)
     needed = detector.order + 1
     if detector.frame < needed:

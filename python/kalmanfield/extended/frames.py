@@ -9,8 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _core
-from ..denoising import estimate_sigma
 from .._validation import check_real_dtype
+from ..denoising import estimate_sigma
 
 __all__ = ["FrameCheck", "box_smooth", "segment_frame"]
 
@@ -23,7 +23,9 @@ class FrameCheck:
     dtype: str | None = None
 
     def frame(self, frame: npt.ArrayLike, index: int) -> np.ndarray:
-        raw = np.asarray(np.ma.filled(frame, np.nan) if isinstance(frame, np.ma.MaskedArray) else frame)
+        raw = np.asarray(
+            np.ma.filled(frame, np.nan) if isinstance(frame, np.ma.MaskedArray) else frame
+        )
         check_real_dtype(raw, f"frame {index}")
         if raw.ndim != 2:
             raise ValueError(f"frame {index} must be 2-D, got {raw.ndim} dimensions")
@@ -48,17 +50,26 @@ class FrameCheck:
 
 
 def box_smooth(image: np.ndarray, width: int) -> np.ndarray:
-    """Mean over a width × width box centred on each pixel (edges repeated)."""
+    """Mean over a width × width box centred on each pixel (edges repeated); separable sums."""
     if width == 1:
         return image
     lo = width // 2
     padded = np.pad(image, ((lo, width - 1 - lo), (lo, width - 1 - lo)), mode="edge")
-    c = np.cumsum(np.cumsum(padded, axis=0), axis=1)
-    c = np.pad(c, ((1, 0), (1, 0)))
     h, w = image.shape
-    s = c[width : width + h, width : width + w] - c[:h, width : width + w]
-    s = s - c[width : width + h, :w] + c[:h, :w]
-    return s / (width * width)
+    rows = padded[0:h].copy()
+    for k in range(1, width):
+        rows += padded[k : k + h]
+    out = rows[:, 0:w].copy()
+    for k in range(1, width):
+        out += rows[:, k : k + w]
+    out /= width * width
+    return out
+
+
+def background_level(smoothed: np.ndarray) -> float:
+    """Median of the smoothed frame: of every 4th row and column beyond 256² pixels."""
+    step = 1 if smoothed.size <= 65536 else 4
+    return float(np.median(smoothed[::step, ::step]))
 
 
 def noise_level(image: np.ndarray) -> float:
@@ -72,16 +83,20 @@ def segment_frame(
     """(measurements (m, 8): x, y, amplitude, area, bbox x0, y0, x1, y1; labels of the
     segments; label image) of a smoothed frame."""
     columns, labels = _core.segment(smoothed, float(threshold), min_area, connectivity)
-    table = np.column_stack(
-        [
-            columns["x"],
-            columns["y"],
-            columns["amplitude"],
-            columns["area"],
-            columns["bbox_x0"],
-            columns["bbox_y0"],
-            columns["bbox_x1"],
-            columns["bbox_y1"],
-        ]
-    ).astype(np.float64).reshape(-1, 8)
+    table = (
+        np.column_stack(
+            [
+                columns["x"],
+                columns["y"],
+                columns["amplitude"],
+                columns["area"],
+                columns["bbox_x0"],
+                columns["bbox_y0"],
+                columns["bbox_x1"],
+                columns["bbox_y1"],
+            ]
+        )
+        .astype(np.float64)
+        .reshape(-1, 8)
+    )
     return table, np.asarray(columns["label"]), labels

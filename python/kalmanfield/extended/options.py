@@ -60,9 +60,11 @@ class DetectorOptions:
             positive_float(getattr(out, name), name)
         return out
 
-    def core_config(self, *, dt: float, noise_std: float, confidence: float, memory: int,
-                    seed_groups: bool) -> dict[str, Any]:
+    def core_config(
+        self, *, dt: float, noise_std: float, confidence: float, memory: int, seed_groups: bool
+    ) -> dict[str, Any]:
         """The keyword arguments of ``_core.GroupTracker``."""
+
         def per_frame(value: float | None, default: float) -> float:
             return float(default / dt if value is None else value)
 

@@ -10,7 +10,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 import pandas as pd
 
 from .._validation import (
@@ -86,6 +85,8 @@ class Scene:
         σ of the white noise.
     amplitude : float
         Target amplitude: snr × noise_std.
+    extras : dict, optional
+        Room for the caller's annotations (empty).
 
     Examples
     --------
@@ -104,7 +105,9 @@ class Scene:
     extras: dict[str, Any] = field(default_factory=dict)
 
 
-def target_mask(shape: Any, size: float, cx: float, cy: float, grid: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+def target_mask(
+    shape: Any, size: float, cx: float, cy: float, grid: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
     """The pixels whose centres lie in the silhouette centred at (cx, cy)."""
     xx, yy = grid
     dx, dy = xx - cx, yy - cy
@@ -165,7 +168,7 @@ def _stripes(t: Target, dx: np.ndarray) -> np.ndarray:
     return np.where(gap, -1, k)
 
 
-def _targets(targets: int | Sequence[Target]) -> list[Target]:
+def _targets(targets: int | Target | Sequence[Target]) -> list[Target]:
     if isinstance(targets, Target):
         return [targets]
     if isinstance(targets, (int, np.integer)) and not isinstance(targets, bool):
@@ -279,12 +282,16 @@ def simulate_scene(
             m = target_mask(t.shape, size, pos[mu, 0], pos[mu, 1], grid)
             stripe = _stripes(t, grid[0] - pos[mu, 0])
             lit = rng.uniform(size=len(gains)) >= t.p_vanish
-            bright = np.where(stripe >= 0, gains[np.maximum(stripe, 0)] * lit[np.maximum(stripe, 0)], 0.0)
+            bright = np.where(
+                stripe >= 0, gains[np.maximum(stripe, 0)] * lit[np.maximum(stripe, 0)], 0.0
+            )
             masks[mu, k] = m
             frames[mu] += amplitude * m * bright
             rows.append((mu, k, pos[mu, 0], pos[mu, 1], vel[mu, 0], vel[mu, 1]))
     paths = np.array([[r[2], r[3]] for r in rows]).reshape(len(tlist), n, 2) if tlist else None
-    _foreign(frames, grid, rng, amplitude, still_objects, moving_objects, mean_speed or 0.0, dt, paths)
+    _foreign(
+        frames, grid, rng, amplitude, still_objects, moving_objects, mean_speed or 0.0, dt, paths
+    )
     clutter = np.zeros(n, dtype=np.int64)
     for mu in range(n):
         if rng.uniform() < p_false:
@@ -315,9 +322,16 @@ def _foreign(frames, grid, rng, amplitude, still, moving, speed, dt, paths) -> N
     n, h, w = frames.shape
     size = 10.0
     steps = np.arange(n)[:, None] * dt
-    for k in range(nonnegative_int(still, "still_objects") + nonnegative_int(moving, "moving_objects")):
+    for k in range(
+        nonnegative_int(still, "still_objects") + nonnegative_int(moving, "moving_objects")
+    ):
         for _ in range(100):
-            c = np.array([rng.uniform(size, max(w - size, size + 1)), rng.uniform(size, max(h - size, size + 1))])
+            c = np.array(
+                [
+                    rng.uniform(size, max(w - size, size + 1)),
+                    rng.uniform(size, max(h - size, size + 1)),
+                ]
+            )
             v = np.zeros(2)
             if k >= still:
                 a = rng.uniform(0, 2 * math.pi)

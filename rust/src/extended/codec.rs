@@ -97,7 +97,12 @@ fn write_config(w: &mut Writer, c: &GroupConfig) {
         w.f(v);
     }
     w.u(c.memory as u64);
-    for v in [c.initial_speed_std, c.gate_margin, c.min_speed, c.velocity_tolerance] {
+    for v in [
+        c.initial_speed_std,
+        c.gate_margin,
+        c.min_speed,
+        c.velocity_tolerance,
+    ] {
         w.f(v);
     }
     w.u(c.max_misses as u64);
@@ -109,7 +114,8 @@ fn read_config(r: &mut Reader<'_>) -> Result<GroupConfig> {
     let [dt, position_std, process_std, amplitude_std, log_area_std, feature_drift, confidence] =
         [r.f()?, r.f()?, r.f()?, r.f()?, r.f()?, r.f()?, r.f()?];
     let memory = r.usize(MAX_MEMORY as u64, "memory")?;
-    let [initial_speed_std, gate_margin, min_speed, velocity_tolerance] = [r.f()?, r.f()?, r.f()?, r.f()?];
+    let [initial_speed_std, gate_margin, min_speed, velocity_tolerance] =
+        [r.f()?, r.f()?, r.f()?, r.f()?];
     let max_misses = r.usize(1 << 20, "max_misses")?;
     let seed_groups = r.usize(1, "seed_groups")? == 1;
     let config = GroupConfig {
@@ -190,7 +196,12 @@ impl GroupTracker {
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut w = Writer(TAG.to_vec());
         write_config(&mut w, &self.config);
-        for v in [self.next_group, self.next_sequence, self.frame, self.groups.len() as u64] {
+        for v in [
+            self.next_group,
+            self.next_sequence,
+            self.frame,
+            self.groups.len() as u64,
+        ] {
             w.u(v);
         }
         for g in &self.groups {

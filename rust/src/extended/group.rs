@@ -29,7 +29,12 @@ pub(crate) fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 pub(crate) fn union(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-    [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])]
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].max(b[2]),
+        a[3].max(b[3]),
+    ]
 }
 
 impl Group {
@@ -40,13 +45,19 @@ impl Group {
     }
 
     pub fn centre(&self) -> [f64; 2] {
-        [0.5 * (self.bbox[0] + self.bbox[2]), 0.5 * (self.bbox[1] + self.bbox[3])]
+        [
+            0.5 * (self.bbox[0] + self.bbox[2]),
+            0.5 * (self.bbox[1] + self.bbox[3]),
+        ]
     }
 
     /// Whether the two boxes, this one grown by `margin`, overlap.
     pub fn touches(&self, other: &Group, margin: f64) -> bool {
         let (a, b) = (self.bbox, other.bbox);
-        a[0] - margin <= b[2] && b[0] <= a[2] + margin && a[1] - margin <= b[3] && b[1] <= a[3] + margin
+        a[0] - margin <= b[2]
+            && b[0] <= a[2] + margin
+            && a[1] - margin <= b[3]
+            && b[1] <= a[3] + margin
     }
 
     /// Step 7, (3.5): the shared derivatives become the mean of the confirmed sequences'

@@ -77,7 +77,8 @@ impl Filters<'_> {
             state[axis][0] = z.position()[axis];
             cov[axis][0][0] = r;
             for (k, row) in cov[axis].iter_mut().enumerate().take(self.d()).skip(1) {
-                row[k] = (self.config.initial_speed_std / self.config.dt.powi(k as i32 - 1)).powi(2);
+                row[k] =
+                    (self.config.initial_speed_std / self.config.dt.powi(k as i32 - 1)).powi(2);
             }
         }
         Sequence {
@@ -109,7 +110,9 @@ impl Filters<'_> {
         }
         let feature_var = self.joined(s).then(|| {
             let std = self.feature_std();
-            [0, 1].map(|q| s.feature_var[q] + (1.0 + self.config.feature_drift.powi(2)) * std[q].powi(2))
+            [0, 1].map(|q| {
+                s.feature_var[q] + (1.0 + self.config.feature_drift.powi(2)) * std[q].powi(2)
+            })
         });
         let (mut window_index, mut window_dof) = (0.0, 0);
         let skip = usize::from(s.window.len() >= self.config.memory);

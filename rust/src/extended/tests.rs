@@ -63,7 +63,7 @@ fn fragments_vanish_appear_and_background_is_rejected() {
         let f = frame as f64;
         let offsets: Vec<[f64; 2]> = match frame {
             0..=4 => OFFSETS.to_vec(),
-            5..=6 => OFFSETS[..2].to_vec(),            // the third fragment vanishes
+            5..=6 => OFFSETS[..2].to_vec(), // the third fragment vanishes
             _ => vec![OFFSETS[0], OFFSETS[1], [0.0, -3.0]], // a new one appears
         };
         let mut segments = object(f, [10.0, 20.0], v, &offsets);
@@ -73,14 +73,20 @@ fn fragments_vanish_appear_and_background_is_rejected() {
         last = t.step(&segments).unwrap();
         if frame >= 3 {
             let spot = segments.len() - 1;
-            assert!(!last.segment_member[spot], "background spot is a member at {frame}");
+            assert!(
+                !last.segment_member[spot],
+                "background spot is a member at {frame}"
+            );
         }
         if frame >= 2 {
             assert_eq!(last.groups.iter().filter(|g| g.members > 0).count(), 1);
         }
     }
     let object = last.groups.iter().find(|g| g.members > 0).unwrap();
-    assert_eq!(object.members, 3, "the new fragment joined after ν + 1 frames");
+    assert_eq!(
+        object.members, 3,
+        "the new fragment joined after ν + 1 frames"
+    );
     assert!((object.vx - v[0]).abs() < 0.1 && (object.vy - v[1]).abs() < 0.1);
     assert_eq!(object.frames_detected, 10);
 }
@@ -101,7 +107,9 @@ fn members_need_more_than_order_plus_one_observations() {
 fn still_objects_are_not_members() {
     let mut t = GroupTracker::new(config()).unwrap();
     for frame in 0..6 {
-        let a = t.step(&object(frame as f64, [10.0, 10.0], [0.0, 0.0], &OFFSETS)).unwrap();
+        let a = t
+            .step(&object(frame as f64, [10.0, 10.0], [0.0, 0.0], &OFFSETS))
+            .unwrap();
         assert_eq!(a.groups.iter().map(|g| g.members).sum::<usize>(), 0);
     }
 }
@@ -143,7 +151,10 @@ fn bytes_resume_exactly_and_corrupt_bytes_fail() {
     let mut b = GroupTracker::from_bytes(&bytes).unwrap();
     assert_eq!(a, b);
     for frame in 5..10 {
-        assert_eq!(a.step(&scene(frame)).unwrap(), b.step(&scene(frame)).unwrap());
+        assert_eq!(
+            a.step(&scene(frame)).unwrap(),
+            b.step(&scene(frame)).unwrap()
+        );
     }
     assert!(GroupTracker::from_bytes(&bytes[..bytes.len() - 3]).is_err());
     assert!(GroupTracker::from_bytes(&[bytes.clone(), vec![0; 8]].concat()).is_err());

@@ -268,9 +268,10 @@ impl GroupTracker {
             let mut shared = s.state;
             shared[0][0] = 0.0;
             shared[1][0] = 0.0;
-            let bbox = s.segment.map_or([s.state[0][0], s.state[1][0], s.state[0][0], s.state[1][0]], |r| {
-                segments[r].bbox
-            });
+            let bbox = s.segment.map_or(
+                [s.state[0][0], s.state[1][0], s.state[0][0], s.state[1][0]],
+                |r| segments[r].bbox,
+            );
             self.new_group(shared, bbox);
             if let Some(g) = self.groups.last_mut() {
                 g.sequences.push(s);
@@ -333,8 +334,8 @@ impl GroupTracker {
             let mut j = i + 1;
             while j < self.groups.len() {
                 let (a, b) = (&self.groups[i], &self.groups[j]);
-                let agree = distance(velocity(&a.shared), velocity(&b.shared))
-                    <= config.velocity_tolerance;
+                let agree =
+                    distance(velocity(&a.shared), velocity(&b.shared)) <= config.velocity_tolerance;
                 if a.touches(b, config.gate_margin) && mature(a) && mature(b) && agree {
                     let b = self.groups.remove(j);
                     let a = &mut self.groups[i];
@@ -408,9 +409,20 @@ impl GroupTracker {
 /// Finite measurements with a positive area and an ordered box.
 fn check(segments: &[Measurement]) -> Result<()> {
     for (r, z) in segments.iter().enumerate() {
-        let values = [z.x, z.y, z.amplitude, z.area, z.bbox[0], z.bbox[1], z.bbox[2], z.bbox[3]];
+        let values = [
+            z.x,
+            z.y,
+            z.amplitude,
+            z.area,
+            z.bbox[0],
+            z.bbox[1],
+            z.bbox[2],
+            z.bbox[3],
+        ];
         if values.iter().any(|v| !v.is_finite()) {
-            return Err(FieldError::NonFinite(format!("segment {r} has a NaN or infinite value")));
+            return Err(FieldError::NonFinite(format!(
+                "segment {r} has a NaN or infinite value"
+            )));
         }
         if z.area < 1.0 || z.bbox[0] > z.bbox[2] || z.bbox[1] > z.bbox[3] {
             return Err(FieldError::InvalidParameter(format!(

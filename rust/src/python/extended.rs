@@ -2,7 +2,9 @@
 //! `kalmanfield._core.extended_assign`.
 
 use crate::extended::{assign, GroupConfig, GroupTracker, Measurement, Variant};
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -23,10 +25,14 @@ fn extended_assign<'py>(
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let (sequence, segment, index) = (sequence.as_array(), segment.as_array(), index.as_array());
     if sequence.len() != segment.len() || sequence.len() != index.len() {
-        return Err(PyValueError::new_err("sequence, segment and index must have one length"));
+        return Err(PyValueError::new_err(
+            "sequence, segment and index must have one length",
+        ));
     }
     if sequence.iter().chain(segment.iter()).any(|&v| v < 0) {
-        return Err(PyValueError::new_err("sequence and segment must be non-negative"));
+        return Err(PyValueError::new_err(
+            "sequence and segment must be non-negative",
+        ));
     }
     if index.iter().any(|v| v.is_nan()) {
         return Err(PyValueError::new_err("index must not contain NaN"));
@@ -41,7 +47,10 @@ fn extended_assign<'py>(
     let n_seq = variants.iter().map(|v| v.sequence + 1).max().unwrap_or(0);
     let n_seg = variants.iter().map(|v| v.segment + 1).max().unwrap_or(0);
     let chosen = py.detach(|| assign(&variants, n_seq, n_seg));
-    Ok(PyArray1::from_vec(py, chosen.into_iter().map(|k| k as i64).collect()))
+    Ok(PyArray1::from_vec(
+        py,
+        chosen.into_iter().map(|k| k as i64).collect(),
+    ))
 }
 
 /// The Rust stage-2 tracker; the typed front is `kalmanfield.detect_moving_objects`.
@@ -130,7 +139,10 @@ impl PyGroupTracker {
         let a = py.detach(|| inner.step(&z))?;
         let out = PyDict::new(py);
         out.set_item("segment_group", PyArray1::from_vec(py, a.segment_group))?;
-        out.set_item("segment_sequence", PyArray1::from_vec(py, a.segment_sequence))?;
+        out.set_item(
+            "segment_sequence",
+            PyArray1::from_vec(py, a.segment_sequence),
+        )?;
         out.set_item("segment_member", PyArray1::from_vec(py, a.segment_member))?;
         let rows: Vec<f64> = a
             .groups
@@ -150,7 +162,11 @@ impl PyGroupTracker {
         let n = a.groups.len();
         let groups: Bound<'py, PyArray2<f64>> = PyArray1::from_vec(py, rows).reshape([n, 7])?;
         out.set_item("groups", groups)?;
-        let merged: Vec<i64> = a.merged.iter().flat_map(|&(b, g)| [b as i64, g as i64]).collect();
+        let merged: Vec<i64> = a
+            .merged
+            .iter()
+            .flat_map(|&(b, g)| [b as i64, g as i64])
+            .collect();
         let n = a.merged.len();
         let merged: Bound<'py, PyArray2<i64>> = PyArray1::from_vec(py, merged).reshape([n, 2])?;
         out.set_item("merged", merged)?;

@@ -89,7 +89,9 @@ class GroupTracker:
         c = self.c
         self.F, self.Q = motion(c["order"], c["dt"], c["process_std"])
         most = c["memory"] * 4
-        self.alpha = [math.inf] + [chi2_quantile(c["confidence"], dof) for dof in range(1, most + 1)]
+        self.alpha = [math.inf] + [
+            chi2_quantile(c["confidence"], dof) for dof in range(1, most + 1)
+        ]
         self.groups: list[Group] = []
         self.next_group = 0
         self.next_sequence = 0
@@ -167,7 +169,9 @@ class GroupTracker:
         c = self.c
         previous = g.shared[:, 1].copy()
         near = [
-            s for s in g.sequences if math.hypot(*(s.state[:, 1] - previous)) <= c["velocity_tolerance"]
+            s
+            for s in g.sequences
+            if math.hypot(*(s.state[:, 1] - previous)) <= c["velocity_tolerance"]
         ]
         chosen = near or g.sequences
         if not chosen:
@@ -194,7 +198,11 @@ class GroupTracker:
         m, c = len(z_all), self.c
         seg_group, seg_seq, seg_member = np.full(m, -1), np.full(m, -1), np.zeros(m, bool)
         # steps 5-6
-        flat, seqs, segs, index, incs = [], [], [], [], []
+        flat: list[tuple[int, int]] = []
+        seqs: list[int] = []
+        segs: list[int] = []
+        index: list[float] = []
+        incs: list[tuple[float, int]] = []
         for gi, g in enumerate(self.groups):
             for si, s in enumerate(g.sequences):
                 pred = self._predict(s, g.shared)
@@ -241,10 +249,10 @@ class GroupTracker:
 
     def _split(self, z_all) -> None:
         c = self.c
-        leaving = []
+        leaving: list[Sequence] = []
         for g in self.groups:
             shared = g.shared[:, 1].copy()
-            stay = []
+            stay: list[Sequence] = []
             for s in g.sequences:
                 near = math.hypot(*(s.state[:, 1] - shared)) <= c["velocity_tolerance"]
                 (stay if s.length <= c["order"] + 1 or near else leaving).append(s)
@@ -266,7 +274,10 @@ class GroupTracker:
             best = None
             for gi, g in enumerate(self.groups):
                 b = g.bbox
-                if b[0] - margin <= z[0] <= b[2] + margin and b[1] - margin <= z[1] <= b[3] + margin:
+                if (
+                    b[0] - margin <= z[0] <= b[2] + margin
+                    and b[1] - margin <= z[1] <= b[3] + margin
+                ):
                     centre = np.array([0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])])
                     dist = math.hypot(*(centre - z[:2]))
                     if best is None or dist < best[0]:
