@@ -50,13 +50,14 @@ def k93_correct(
     truth : pandas.DataFrame
         :attr:`Scene.truth` of the single target.
     sigma_position : float, default 1.0
-        σ of a fragment centroid (pixels): the detector's ``position_std``.
+        The std σ of a fragment centroid (pixels): the detector's ``position_std``.
     sigma_velocity : float, default 10.0
-        σ of the velocity estimate (pixels per time unit): 1 pixel per frame at τ = 0.1.
+        The std σ of the velocity estimate (pixels per time unit): 1 pixel per frame at τ = 0.1.
 
     Returns
     -------
     bool
+        Whether the run is correct.
 
     Examples
     --------
@@ -181,6 +182,7 @@ def plot_k93(table: pd.DataFrame, ax: Any = None) -> Any:
     Returns
     -------
     matplotlib.axes.Axes
+        The axes drawn in.
 
     Notes
     -----

@@ -31,7 +31,7 @@ class DetectedObject:
 
     Notes
     -----
-    ``score`` is the path length Σ |v| τ (pixels) travelled over the frames in which the object
+    ``score`` is the path length Σ ``|v|`` τ (pixels) travelled over the frames in which the object
     was detected (it had at least one fragment sequence longer than ν + 1 moving with the
     group): an object seen longer and moving faster ranks higher, moving background being
     assumed slower than the object (the source's Remark 1).

@@ -51,7 +51,19 @@ class MovingObjectDetector:
 
     Parameters
     ----------
-    noise_std, dt, confidence, memory, mode, threshold, **options
+    noise_std : float, optional
+        As :func:`detect_moving_objects`.
+    dt : float, default 1.0
+        As :func:`detect_moving_objects`.
+    confidence : float, default 0.99
+        As :func:`detect_moving_objects`.
+    memory : int, default 4
+        As :func:`detect_moving_objects`.
+    mode : {"auto", "point", "extended"}, default "auto"
+        As :func:`detect_moving_objects`.
+    threshold : float, optional
+        As :func:`detect_moving_objects`.
+    **options
         As :func:`detect_moving_objects`.
 
     Raises
@@ -330,12 +342,12 @@ def detect_moving_objects(
         time: memory does not grow with F beyond the objects' records). NaN pixels (or masked
         ones) are missing: they take the frame's median and are never foreground alone.
     noise_std : float, optional
-        Std σ of the white noise; estimated from the first frame
+        The std σ of the white noise; estimated from the first frame
         (:func:`kalmanfield.estimate_sigma`) when None.
     dt : float, default 1.0
         Time between frames (velocities are in pixels per this unit).
     confidence : float, default 0.99
-        β of the χ² test of every sequence (§3.2).
+        The confidence β of the χ² test of every sequence (§3.2).
     memory : int, default 4
         N: index increments kept (N + 1 observations).
     mode : {"auto", "point", "extended"}, default "auto"
@@ -355,7 +367,7 @@ def detect_moving_objects(
     Returns
     -------
     list of DetectedObject
-        Best first: by score, the path length Σ |v| τ travelled while detected (an object
+        Best first: by score, the path length Σ ``|v|`` τ travelled while detected (an object
         seen longer and moving faster ranks higher: moving background is assumed slower than
         the object, the source's Remark 1), then by frames detected.
 

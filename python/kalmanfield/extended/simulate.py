@@ -33,7 +33,7 @@ class Target:
     Parameters
     ----------
     shape : {"rhombus", "disc", "rectangle"} or array_like of bool, default "rhombus"
-        The silhouette: rhombus of side `size` (the source's; |dx| + |dy| ≤ size/√2), disc of
+        The silhouette: rhombus of side `size` (the source's; ``|dx| + |dy| ≤ size/√2``), disc of
         diameter `size`, rectangle `size` × `size`/2, or a given bool mask (centred).
     size : float, default 10.0
         Side / diameter in pixels.
@@ -46,7 +46,7 @@ class Target:
         Mean initial velocity (px per time unit); default: a random direction, speed uniform
         in [0.5, 1] × the speed that keeps the target in the frame.
     process_std : float, default 0.5
-        σ_w of the velocity's random step per frame (the model (3.7) of §3.5).
+        The std σ_w of the velocity's random step per frame (the model (3.7) of §3.5).
     trajectory : array_like, optional
         (n_frames, 2) centres (x, y) to follow instead of the motion model.
 
@@ -82,7 +82,7 @@ class Scene:
     clutter : numpy.ndarray
         (F,) int: clutter spots drawn in each frame.
     noise_std : float
-        σ of the white noise.
+        The std σ of the white noise.
     amplitude : float
         Target amplitude: snr × noise_std.
     extras : dict, optional
@@ -220,7 +220,7 @@ def simulate_scene(
     seed : int, numpy.random.Generator or None
         Seed (None: OS entropy).
     noise_std : float, default 1.0
-        σ of the white Gaussian noise added to every pixel.
+        The std σ of the white Gaussian noise added to every pixel.
     spots : int, default 3
         Clutter spots in a frame that has clutter.
     still_objects, moving_objects : int, default 1
@@ -233,6 +233,7 @@ def simulate_scene(
     Returns
     -------
     Scene
+        The frames and the ground truth.
 
     Raises
     ------

@@ -3,6 +3,9 @@
 //! w_ν ~ N(0, σ²) each frame and every lower derivative moves by its Taylor share:
 //! W = g w_ν, g_i = τ^(ν−i)/(ν−i)!, Q = σ² g gᵀ (for ν = 1: x += x′τ + w τ, x′ += w, (3.7)).
 
+// Index loops over axes and parameters mirror the formulas and the NumPy twin.
+#![allow(clippy::needless_range_loop)]
+
 /// State length bound: ν + 1 ≤ 3.
 pub(crate) const DIM: usize = 3;
 

@@ -2,6 +2,9 @@
 //! (3.1), the features (amplitude, log area; ν = 0) that join the index after ν + 1
 //! observations (step 9), and the sliding window of index increments (§3.2).
 
+// Index loops over axes and parameters mirror the formulas and the NumPy twin.
+#![allow(clippy::needless_range_loop)]
+
 use super::config::{GroupConfig, CENTROID_DOF, FEATURE_DOF};
 use super::motion::{apply, propagate, Matrix, Vector, DIM};
 
