@@ -14,24 +14,12 @@ import tqdm
 
 from .._validation import SeedLike, positive_int, resolve_seed
 from ..extended import detect_moving_objects, simulate_scene
+from .type_confusion import _wilson
 
 __all__ = ["SOURCE_P_O", "k93", "k93_correct", "plot_k93"]
 
 #: the source's table: (SNR, P_f) → P_o
 SOURCE_P_O = {(3.0, 0.3): 0.80, (3.0, 0.1): 0.90, (5.0, 0.3): 0.92, (5.0, 0.1): 0.98}
-
-#: z of the two-sided 95 % Wilson interval
-_Z95 = 1.959963984540054
-
-
-def wilson(k: int, n: int, z: float = _Z95) -> tuple[float, float]:
-    """The Wilson score interval of a binomial proportion k/n."""
-    if n == 0:
-        return (0.0, 1.0)
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (centre - half, centre + half)
 
 
 def k93_correct(
@@ -159,7 +147,7 @@ def k93(
             options = {"noise_std": 1.0, "dt": 0.1, **detector}
             correct += k93_correct(detect_moving_objects(scene.frames, **options), scene.truth)
             bar.update()
-        low, high = wilson(correct, runs)
+        low, high = (float(v) for v in _wilson(np.array(correct), runs))
         rows.append(
             (s, p, runs, correct, correct / runs, low, high, SOURCE_P_O.get((s, p), math.nan))
         )
