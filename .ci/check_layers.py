@@ -43,7 +43,8 @@ LAYERS = {
     "denoising": 5,
     "sequence": 5,
     "tracking": 6,
-    "python": 7,
+    "extended": 7,
+    "python": 8,
 }
 
 IDENT = r"[A-Za-z_][A-Za-z0-9_]*"

@@ -15,6 +15,14 @@ from importlib import metadata as _metadata
 
 from . import _compat
 from .denoising import denoise, estimate_noise_var, estimate_sigma, local_moments
+from .extended import (
+    DetectedObject,
+    MovingObjectDetector,
+    Scene,
+    Target,
+    detect_moving_objects,
+    simulate_scene,
+)
 from .field import ARFieldModel, FieldStream, sample_product_field
 from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import (
@@ -38,14 +46,18 @@ __all__ = [
     "AxisFit",
     "BranchingTracker",
     "ChangeDetector",
+    "DetectedObject",
     "FieldStream",
     "FuzzyFilter",
     "IMMEstimator",
     "IdentifiedModel",
     "KalmanFilterCV",
     "LinearGaussianModel",
+    "MovingObjectDetector",
     "ScalarRowFilter",
+    "Scene",
     "SequenceFilter",
+    "Target",
     "TemplateTracker",
     "TemplateUpdate",
     "TrackerConfig",
@@ -54,6 +66,7 @@ __all__ = [
     "WhitenessTest",
     "YuleWalkerModel",
     "denoise",
+    "detect_moving_objects",
     "effective_memory",
     "estimate_noise_var",
     "estimate_sigma",
@@ -65,6 +78,7 @@ __all__ = [
     "sample_correlation",
     "sample_product_field",
     "segment",
+    "simulate_scene",
     "wiener_bound",
     "wiener_error_map",
     "yule_walker",

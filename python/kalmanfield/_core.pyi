@@ -425,3 +425,42 @@ class FastSequenceFilter:
     def error_variance(self) -> npt.NDArray[np.float64]: ...
     def state(self) -> tuple[int, npt.NDArray[np.float64]]: ...
     def set_state(self, frames: int, history: npt.NDArray[np.float64]) -> None: ...
+# -- extended (stage 2 of the detector, §3.4) ------------------------------------------------
+def extended_assign(
+    sequence: npt.NDArray[np.int64],
+    segment: npt.NDArray[np.int64],
+    index: npt.NDArray[np.float64],
+) -> npt.NDArray[np.int64]: ...
+
+@final
+class GroupTracker:
+    def __new__(
+        cls,
+        *,
+        order: int,
+        dt: float,
+        position_std: float,
+        process_std: float,
+        amplitude_std: float,
+        log_area_std: float,
+        feature_drift: float,
+        confidence: float,
+        memory: int,
+        initial_speed_std: float,
+        gate_margin: float,
+        min_speed: float,
+        velocity_tolerance: float,
+        max_misses: int,
+        seed_groups: bool,
+    ) -> GroupTracker: ...
+    def step(self, segments: npt.NDArray[np.float64]) -> dict[str, Any]: ...
+    def seed(self, segments: npt.NDArray[np.float64], vx: float, vy: float) -> int: ...
+    @property
+    def frame(self) -> int: ...
+    @property
+    def n_groups(self) -> int: ...
+    @property
+    def n_sequences(self) -> int: ...
+    def state_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_state(state: bytes) -> GroupTracker: ...

@@ -10,6 +10,7 @@
 
 pub mod denoising;
 mod error;
+pub mod extended;
 pub mod field;
 pub mod filterbank;
 pub mod identification;

@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 mod branching;
 mod convert;
 mod denoising;
+mod extended;
 mod field;
 mod filterbank;
 mod identification;
@@ -51,5 +52,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     trajectory::register(m)?;
     sequence::register(m)?;
     template::register(m)?;
+    extended::register(m)?;
     Ok(())
 }

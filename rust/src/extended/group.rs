@@ -1,0 +1,99 @@
+//! A group of sequences moving together: one object (SPEC §3.4 steps 7, 10). It holds the
+//! shared derivatives X*_q (velocity, acceleration) used by every member's prediction, the
+//! box of its last segments (the gate of new fragments) and its detection count.
+
+use super::config::GroupConfig;
+use super::motion::Vector;
+use super::sequence::Sequence;
+
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Group {
+    pub id: u64,
+    /// Per axis: (unused, velocity, acceleration) shared by the group.
+    pub shared: [Vector; 2],
+    pub sequences: Vec<Sequence>,
+    /// x0, y0, x1, y1 of the union of its last segments.
+    pub bbox: [f64; 4],
+    /// Frames in a row without a confirmed sequence.
+    pub misses: usize,
+    /// Frames in which it was detected (had a member).
+    pub frames_detected: usize,
+}
+
+pub(crate) fn velocity(state: &[Vector; 2]) -> [f64; 2] {
+    [state[0][1], state[1][1]]
+}
+
+pub(crate) fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+pub(crate) fn union(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].max(b[2]),
+        a[3].max(b[3]),
+    ]
+}
+
+impl Group {
+    /// Whether (x, y) lies in the box grown by `margin`.
+    pub fn gate_contains(&self, x: f64, y: f64, margin: f64) -> bool {
+        let b = self.bbox;
+        x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
+    }
+
+    pub fn centre(&self) -> [f64; 2] {
+        [
+            0.5 * (self.bbox[0] + self.bbox[2]),
+            0.5 * (self.bbox[1] + self.bbox[3]),
+        ]
+    }
+
+    /// Whether the two boxes, this one grown by `margin`, overlap.
+    pub fn touches(&self, other: &Group, margin: f64) -> bool {
+        let (a, b) = (self.bbox, other.bbox);
+        a[0] - margin <= b[2]
+            && b[0] <= a[2] + margin
+            && a[1] - margin <= b[3]
+            && b[1] <= a[3] + margin
+    }
+
+    /// Step 7, (3.5): the shared derivatives become the mean of the confirmed sequences'
+    /// own ones — over those whose velocity lies within `velocity_tolerance` of the previous
+    /// shared velocity when there are any (a spot of the background that fell into the gate
+    /// does not drag the group), over all otherwise.
+    pub fn refresh_shared(&mut self, config: &GroupConfig) {
+        let previous = velocity(&self.shared);
+        let near: Vec<&Sequence> = self
+            .sequences
+            .iter()
+            .filter(|s| distance(velocity(&s.state), previous) <= config.velocity_tolerance)
+            .collect();
+        let chosen: Vec<&Sequence> = if near.is_empty() {
+            self.sequences.iter().collect()
+        } else {
+            near
+        };
+        if chosen.is_empty() {
+            return;
+        }
+        let n = chosen.len() as f64;
+        for axis in 0..2 {
+            for k in 1..=config.order {
+                self.shared[axis][k] = chosen.iter().map(|s| s.state[axis][k]).sum::<f64>() / n;
+            }
+        }
+    }
+
+    /// Step 10: a confirmed sequence longer than ν + 1 whose own speed exceeds `min_speed`
+    /// and whose velocity lies within `velocity_tolerance` of the group's.
+    pub fn is_member(&self, s: &Sequence, config: &GroupConfig) -> bool {
+        let v = velocity(&s.state);
+        s.segment.is_some()
+            && s.length > config.order + 1
+            && v[0].hypot(v[1]) > config.min_speed
+            && distance(v, velocity(&self.shared)) <= config.velocity_tolerance
+    }
+}

@@ -1,0 +1,439 @@
+//! The stage-2 tracker, frame by frame (SPEC §3.4 steps 4–10): assignment of the frame's
+//! segments to the live sequences of every group (one joint greedy assignment, so two
+//! crossing objects compete for the segments), Kalman updates, shared derivatives, dropped
+//! and new sequences, new groups, group merges, and the per-frame answer.
+
+use super::assignment::{assign, Variant};
+use super::config::GroupConfig;
+use super::group::{distance, union, velocity, Group};
+use super::motion::{motion, Matrix, DIM};
+use super::sequence::{Filters, Measurement};
+use crate::{FieldError, Result};
+
+/// Stage 2 over a stream of frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupTracker {
+    pub(crate) config: GroupConfig,
+    pub(crate) thresholds: Vec<f64>,
+    pub(crate) f: Matrix,
+    pub(crate) q: Matrix,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) next_group: u64,
+    pub(crate) next_sequence: u64,
+    pub(crate) frame: u64,
+}
+
+/// What a group looks like after a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupReport {
+    pub id: u64,
+    /// Object centre: area-weighted mean of the members' filtered centroids (of the confirmed
+    /// sequences when there is no member, else the box centre).
+    pub x: f64,
+    pub y: f64,
+    pub vx: f64,
+    pub vy: f64,
+    pub members: usize,
+    pub frames_detected: usize,
+}
+
+/// The answer for one frame: per segment its group, sequence (−1 never happens once the
+/// segment started a sequence; −1 when it was left alone) and membership; per group a report.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrameAnswer {
+    pub segment_group: Vec<i64>,
+    pub segment_sequence: Vec<i64>,
+    pub segment_member: Vec<bool>,
+    pub groups: Vec<GroupReport>,
+    /// (absorbed group, group it joined) of this frame's merges, in order.
+    pub merged: Vec<(u64, u64)>,
+}
+
+impl GroupTracker {
+    pub fn new(config: GroupConfig) -> Result<Self> {
+        config.validate()?;
+        let thresholds = config.thresholds()?;
+        let (f, q) = motion(config.order, config.dt, config.process_std);
+        Ok(Self {
+            config,
+            thresholds,
+            f,
+            q,
+            groups: Vec::new(),
+            next_group: 0,
+            next_sequence: 0,
+            frame: 0,
+        })
+    }
+
+    pub fn config(&self) -> &GroupConfig {
+        &self.config
+    }
+
+    /// Frames processed.
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// Live groups.
+    pub fn n_groups(&self) -> usize {
+        self.groups.len()
+    }
+
+    /// Live sequences of all groups.
+    pub fn n_sequences(&self) -> usize {
+        self.groups.iter().map(|g| g.sequences.len()).sum()
+    }
+
+    fn filters(&self) -> Filters<'_> {
+        Filters {
+            config: &self.config,
+            f: self.f,
+            q: self.q,
+        }
+    }
+
+    /// Starts a group at the given segments with known velocity (stage 1's answer, step 4).
+    pub fn seed(&mut self, segments: &[Measurement], velocity: [f64; 2]) -> Result<u64> {
+        check(segments)?;
+        if !(velocity[0].is_finite() && velocity[1].is_finite()) {
+            return Err(FieldError::NonFinite("seed velocity is not finite".into()));
+        }
+        let mut shared = [[0.0; DIM]; 2];
+        shared[0][1] = velocity[0];
+        shared[1][1] = velocity[1];
+        let id = self.new_group(shared, segments.first().map_or([0.0; 4], |z| z.bbox));
+        let g = self.groups.len() - 1;
+        for z in segments {
+            self.start_sequence(g, z, true);
+        }
+        Ok(id)
+    }
+
+    fn new_group(&mut self, shared: [[f64; DIM]; 2], bbox: [f64; 4]) -> u64 {
+        let id = self.next_group;
+        self.next_group += 1;
+        self.groups.push(Group {
+            id,
+            shared,
+            sequences: Vec::new(),
+            bbox,
+            misses: 0,
+            frames_detected: 0,
+        });
+        id
+    }
+
+    fn start_sequence(&mut self, g: usize, z: &Measurement, grow: bool) -> u64 {
+        let id = self.next_sequence;
+        self.next_sequence += 1;
+        let shared = self.groups[g].shared;
+        let mut s = self.filters().start(id, z, &shared);
+        s.segment = None;
+        let group = &mut self.groups[g];
+        group.sequences.push(s);
+        if grow {
+            group.bbox = union(group.bbox, z.bbox);
+        }
+        id
+    }
+
+    /// Processes one frame's segments; see the module docs.
+    pub fn step(&mut self, segments: &[Measurement]) -> Result<FrameAnswer> {
+        check(segments)?;
+        let m = segments.len();
+        let mut answer = FrameAnswer {
+            segment_group: vec![-1; m],
+            segment_sequence: vec![-1; m],
+            segment_member: vec![false; m],
+            groups: Vec::new(),
+            merged: Vec::new(),
+        };
+        let chosen = self.variants_chosen(segments);
+        self.apply_assignment(segments, &chosen);
+        self.refresh_groups(segments);
+        self.split_groups(segments);
+        self.start_new(segments, &mut answer);
+        answer.merged = self.merge_groups();
+        self.report(segments, &mut answer);
+        self.frame += 1;
+        Ok(answer)
+    }
+
+    /// Steps 5–6: every admissible variant of every group's sequences, then the greedy choice.
+    /// Returns (group, sequence position, segment, increment, dof) of the chosen ones.
+    fn variants_chosen(&self, segments: &[Measurement]) -> Vec<(usize, usize, usize, f64, usize)> {
+        let filters = self.filters();
+        let mut flat = Vec::new();
+        let mut variants = Vec::new();
+        let mut increments = Vec::new();
+        for (g, group) in self.groups.iter().enumerate() {
+            for (i, s) in group.sequences.iter().enumerate() {
+                let p = filters.predict(s, &group.shared);
+                for (r, z) in segments.iter().enumerate() {
+                    let (value, dof) = filters.increment(s, &p, z);
+                    let index = p.window_index + value;
+                    if index <= self.thresholds[p.window_dof + dof] {
+                        variants.push(Variant {
+                            sequence: flat.len(),
+                            segment: r,
+                            index,
+                        });
+                        increments.push((value, dof));
+                    }
+                }
+                flat.push((g, i));
+            }
+        }
+        let chosen = assign(&variants, flat.len(), segments.len());
+        chosen
+            .into_iter()
+            .map(|k| {
+                let v = &variants[k];
+                let (g, i) = flat[v.sequence];
+                (g, i, v.segment, increments[k].0, increments[k].1)
+            })
+            .collect()
+    }
+
+    /// Steps 7–8: updates the confirmed sequences, drops the others.
+    fn apply_assignment(
+        &mut self,
+        segments: &[Measurement],
+        chosen: &[(usize, usize, usize, f64, usize)],
+    ) {
+        let config = self.config.clone();
+        let filters = Filters {
+            config: &config,
+            f: self.f,
+            q: self.q,
+        };
+        for group in &mut self.groups {
+            for s in &mut group.sequences {
+                s.segment = None;
+            }
+        }
+        for &(g, i, r, value, dof) in chosen {
+            let s = &mut self.groups[g].sequences[i];
+            filters.update(s, &segments[r], (value, dof));
+            s.segment = Some(r);
+        }
+        for group in &mut self.groups {
+            group.sequences.retain(|s| s.segment.is_some());
+        }
+    }
+
+    /// Step 7 (3.5) per group, its box, its misses; groups missed too long die.
+    fn refresh_groups(&mut self, segments: &[Measurement]) {
+        let config = self.config.clone();
+        for group in &mut self.groups {
+            if group.sequences.is_empty() {
+                group.misses += 1;
+                let v = velocity(&group.shared);
+                for (k, shift) in [v[0], v[1], v[0], v[1]].iter().enumerate() {
+                    group.bbox[k] += shift * config.dt;
+                }
+                continue;
+            }
+            group.misses = 0;
+            group.refresh_shared(&config);
+            let mut boxes = group
+                .sequences
+                .iter()
+                .filter_map(|s| s.segment.map(|r| segments[r].bbox));
+            if let Some(first) = boxes.next() {
+                group.bbox = boxes.fold(first, union);
+            }
+        }
+        self.groups.retain(|g| g.misses <= config.max_misses);
+    }
+
+    /// A confirmed sequence longer than ν + 1 whose own velocity lies beyond
+    /// `velocity_tolerance` from its group's leaves it and starts a group of its own, with its
+    /// own derivatives (two objects that were born touching part; the merge rule joins
+    /// groups again when they agree).
+    fn split_groups(&mut self, segments: &[Measurement]) {
+        let config = self.config.clone();
+        let mut leaving = Vec::new();
+        for group in &mut self.groups {
+            let shared = velocity(&group.shared);
+            let (stay, go): (Vec<_>, Vec<_>) = group.sequences.drain(..).partition(|s| {
+                s.length <= config.order + 1
+                    || distance(velocity(&s.state), shared) <= config.velocity_tolerance
+            });
+            group.sequences = stay;
+            leaving.extend(go);
+        }
+        for s in leaving {
+            let mut shared = s.state;
+            shared[0][0] = 0.0;
+            shared[1][0] = 0.0;
+            let bbox = s.segment.map_or(
+                [s.state[0][0], s.state[1][0], s.state[0][0], s.state[1][0]],
+                |r| segments[r].bbox,
+            );
+            self.new_group(shared, bbox);
+            if let Some(g) = self.groups.last_mut() {
+                g.sequences.push(s);
+            }
+        }
+    }
+
+    /// Step 8: segments left alone start sequences in the group whose gate holds them (the
+    /// nearest box centre), or new groups (`seed_groups`).
+    fn start_new(&mut self, segments: &[Measurement], answer: &mut FrameAnswer) {
+        let mut used = vec![false; segments.len()];
+        for group in &self.groups {
+            for s in &group.sequences {
+                if let Some(r) = s.segment {
+                    used[r] = true;
+                }
+            }
+        }
+        let old = self.groups.len();
+        for (r, z) in segments.iter().enumerate() {
+            if used[r] {
+                continue;
+            }
+            let mut best: Option<(f64, usize)> = None;
+            for (g, group) in self.groups.iter().enumerate() {
+                if group.gate_contains(z.x, z.y, self.config.gate_margin) {
+                    let d = distance(group.centre(), z.position());
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, g));
+                    }
+                }
+            }
+            let g = match best {
+                Some((_, g)) => g,
+                None if self.config.seed_groups => {
+                    self.new_group([[0.0; DIM]; 2], z.bbox);
+                    self.groups.len() - 1
+                }
+                None => continue,
+            };
+            let id = self.start_sequence(g, z, g >= old);
+            let group = &mut self.groups[g];
+            if let Some(s) = group.sequences.last_mut() {
+                s.segment = Some(r);
+            }
+            answer.segment_group[r] = group.id as i64;
+            answer.segment_sequence[r] = id as i64;
+        }
+    }
+
+    /// Groups whose boxes touch and whose shared velocities agree (both with a sequence
+    /// longer than ν + 1) become one: the younger joins the older (SPEC §3.4, step 10 at the
+    /// level of groups).
+    fn merge_groups(&mut self) -> Vec<(u64, u64)> {
+        let config = &self.config;
+        let mut merged = Vec::new();
+        let mature = |g: &Group| g.sequences.iter().any(|s| s.length > config.order + 1);
+        let mut i = 0;
+        while i < self.groups.len() {
+            let mut j = i + 1;
+            while j < self.groups.len() {
+                let (a, b) = (&self.groups[i], &self.groups[j]);
+                let agree =
+                    distance(velocity(&a.shared), velocity(&b.shared)) <= config.velocity_tolerance;
+                if a.touches(b, config.gate_margin) && mature(a) && mature(b) && agree {
+                    let b = self.groups.remove(j);
+                    let a = &mut self.groups[i];
+                    merged.push((b.id, a.id));
+                    let (na, nb) = (a.sequences.len() as f64, b.sequences.len() as f64);
+                    for axis in 0..2 {
+                        for k in 1..DIM {
+                            a.shared[axis][k] =
+                                (na * a.shared[axis][k] + nb * b.shared[axis][k]) / (na + nb);
+                        }
+                    }
+                    a.sequences.extend(b.sequences);
+                    a.bbox = union(a.bbox, b.bbox);
+                    a.frames_detected = a.frames_detected.max(b.frames_detected);
+                    a.misses = a.misses.min(b.misses);
+                } else {
+                    j += 1;
+                }
+            }
+            i += 1;
+        }
+        merged
+    }
+
+    /// Step 10 and the answer: members, detection, centre.
+    fn report(&mut self, segments: &[Measurement], answer: &mut FrameAnswer) {
+        for group in &mut self.groups {
+            let mut members = 0;
+            let (mut wx, mut wy, mut w) = (0.0, 0.0, 0.0);
+            let (mut ax, mut ay, mut aw) = (0.0, 0.0, 0.0);
+            for s in &group.sequences {
+                let Some(r) = s.segment else { continue };
+                let area = segments[r].area;
+                answer.segment_group[r] = group.id as i64;
+                answer.segment_sequence[r] = s.id as i64;
+                ax += area * s.state[0][0];
+                ay += area * s.state[1][0];
+                aw += area;
+                if group.is_member(s, &self.config) {
+                    answer.segment_member[r] = true;
+                    members += 1;
+                    wx += area * s.state[0][0];
+                    wy += area * s.state[1][0];
+                    w += area;
+                }
+            }
+            if members > 0 {
+                group.frames_detected += 1;
+            }
+            let centre = if w > 0.0 {
+                [wx / w, wy / w]
+            } else if aw > 0.0 {
+                [ax / aw, ay / aw]
+            } else {
+                group.centre()
+            };
+            let v = velocity(&group.shared);
+            answer.groups.push(GroupReport {
+                id: group.id,
+                x: centre[0],
+                y: centre[1],
+                vx: v[0],
+                vy: v[1],
+                members,
+                frames_detected: group.frames_detected,
+            });
+        }
+    }
+}
+
+/// Finite measurements with a positive area and an ordered box.
+fn check(segments: &[Measurement]) -> Result<()> {
+    for (r, z) in segments.iter().enumerate() {
+        let values = [
+            z.x,
+            z.y,
+            z.amplitude,
+            z.area,
+            z.bbox[0],
+            z.bbox[1],
+            z.bbox[2],
+            z.bbox[3],
+        ];
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(FieldError::NonFinite(format!(
+                "segment {r} has a NaN or infinite value"
+            )));
+        }
+        if z.area < 1.0 || z.bbox[0] > z.bbox[2] || z.bbox[1] > z.bbox[3] {
+            return Err(FieldError::InvalidParameter(format!(
+                "segment {r}: area must be ≥ 1 and the box ordered (x0 ≤ x1, y0 ≤ y1)"
+            )));
+        }
+        if values.iter().any(|v| v.abs() > 1e12) {
+            return Err(FieldError::InvalidParameter(format!(
+                "segment {r} has a value beyond 1e12 in magnitude"
+            )));
+        }
+    }
+    Ok(())
+}
