@@ -99,7 +99,11 @@ def pair_accuracy(sc: BrownianScenario, particle: pd.Series) -> tuple[float, flo
     p = d.p.to_numpy()
     ok = same & (p[1:] == p[:-1]) & (p[1:] >= 0)
     directed = d.truth.to_numpy()[1:] >= sc.n_brownian
-    return float(ok[same & ~directed].mean()), float(ok[same & directed].mean())
+
+    def share(mask: np.ndarray) -> float:
+        return float(ok[mask].mean()) if mask.any() else float("nan")
+
+    return share(same & ~directed), share(same & directed)
 
 
 def link_precision(sc: BrownianScenario, particle: pd.Series) -> float:
