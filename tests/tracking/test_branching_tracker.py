@@ -491,7 +491,9 @@ def test_index_follows_its_chi2_law(k, memory):
     span = tracks.groupby("particle").frame.agg(["min", "max"])
     whole = span.index[(span["min"] == 0) & (span["max"] == T - 1)]
     assert len(whole) >= 0.99 * n
-    index = tracks[(tracks.frame == T - 1) & tracks.particle.isin(whole)]["likelihood_index"].to_numpy()
+    index = tracks[(tracks.frame == T - 1) & tracks.particle.isin(whole)][
+        "likelihood_index"
+    ].to_numpy()
     dof = k * memory
     m = len(index)
     assert abs(index.mean() - dof) <= 4 * math.sqrt(2 * dof / m)

@@ -15,7 +15,7 @@ def test_second_difference_variances_of_the_motion_model():
     for row, j in zip(nl._DESIGN, nl.SCALES):
         n = 2 * j
 
-        def x(t):
+        def x(t, n=n):
             return np.array([(t - s - 0.5) if s < t else 0.0 for s in range(n)])
 
         accel = x(n) - 2 * x(j) + x(0)

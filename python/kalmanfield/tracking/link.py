@@ -109,7 +109,7 @@ def link(
     pandas.DataFrame
         The rows of `detections` on a track (all of them with `keep_unlinked`), index kept,
         with a ``particle`` column (int64). ``attrs["tracker_config"]`` holds the
-        :class:`TrackerConfig` used, estimated settings included.
+        :class:`TrackerConfig` used, estimated settings included (None for an empty table).
 
     Raises
     ------
@@ -195,19 +195,21 @@ def link(
         {**settings, **{n: 1.0 for n in NOISE_LEVELS if settings[n] is None}}, caller="link"
     )
     config.for_params(len(cols))  # bad settings fail before the pilot
-    n_spatial = len(pos_columns)
-    if len(df) and any(settings.get(n) is None for n in (*NOISE_LEVELS, "max_speed")):
-        config = _estimated_config(
-            settings, values, frame_numbers, n_spatial, cols, config.dt, progress
-        )
-    elif len(df):
-        config = TrackerConfig.from_settings(settings, caller="link")
-    particle = _run(config, values, frame_numbers, cols, progress)
+    used: TrackerConfig | None = None
+    particle = np.full(len(df), -1, np.int64)
+    if len(df):
+        if any(settings.get(n) is None for n in (*NOISE_LEVELS, "max_speed")):
+            used = _estimated_config(
+                settings, values, frame_numbers, len(pos_columns), cols, config.dt, progress
+            )
+        else:
+            used = TrackerConfig.from_settings(settings, caller="link")
+        particle = _run(used, values, frame_numbers, cols, progress)
     out = detections.copy()
     out["particle"] = particle
     if not keep_unlinked:
         out = out[particle >= 0]
-    out.attrs["tracker_config"] = config
+    out.attrs["tracker_config"] = used
     return out
 
 
@@ -291,8 +293,6 @@ def _run(
 ) -> np.ndarray:
     """The particle of each row (−1 on no track) after one run of the tracker."""
     particle = np.full(len(values), -1, np.int64)
-    if not len(values):
-        return particle
     tracker = BranchingTracker(len(cols), config, names=cols)
     order = np.argsort(frame_numbers, kind="stable")
     first, last = int(frame_numbers.min()), int(frame_numbers.max())
@@ -317,8 +317,7 @@ def _frame_numbers(column: np.ndarray, name: str = "frame") -> np.ndarray:
     integral values within int64; anything else (strings, datetimes, fractions, NaN, bools,
     numbers beyond int64) is a ValueError."""
     bad = ValueError(
-        f"the {name} column must hold integer frame numbers within int64, got dtype "
-        f"{column.dtype}"
+        f"the {name} column must hold integer frame numbers within int64, got dtype {column.dtype}"
     )
     if np.issubdtype(column.dtype, np.integer):
         if column.dtype.kind == "u" and column.size and column.max() >= 2**63:

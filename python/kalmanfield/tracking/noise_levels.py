@@ -110,6 +110,11 @@ SCALES = (1, 2, 3, 4)
 _DESIGN = np.array([[2 * (j**3 / 3 - j / 12), 2.0 * j, 6.0] for j in SCALES])
 
 
+def _second_difference(v: np.ndarray, j: int) -> np.ndarray:
+    """z_{t+j} − 2 z_t + z_{t−j} along the rows of `v`, all columns in one vector."""
+    return (v[2 * j :] - 2 * v[j:-j] + v[: -2 * j]).ravel()
+
+
 def second_difference_variances(runs_values: list[np.ndarray]) -> np.ndarray:
     """Robust variances of the second differences at every scale of :data:`SCALES`, pooled
     over the columns of each run (an (n, c) array): the 75th percentile over the runs of at
@@ -119,13 +124,11 @@ def second_difference_variances(runs_values: list[np.ndarray]) -> np.ndarray:
     long_runs = [v for v in runs_values if len(v) >= 16]
     out = np.empty(len(SCALES))
     for s, j in enumerate(SCALES):
-        def u(v: np.ndarray) -> np.ndarray:
-            return (v[2 * j :] - 2 * v[j:-j] + v[: -2 * j]).ravel()
-
         if len(long_runs) >= 5:
-            out[s] = np.quantile([robust_var(u(v)) for v in long_runs], 0.75)
+            out[s] = np.quantile([robust_var(_second_difference(v, j)) for v in long_runs], 0.75)
         else:
-            out[s] = robust_var(np.concatenate([u(v) for v in runs_values if len(v) > 2 * j]))
+            pooled = [_second_difference(v, j) for v in runs_values if len(v) > 2 * j]
+            out[s] = robust_var(np.concatenate(pooled))
     return out
 
 

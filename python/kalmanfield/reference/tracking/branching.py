@@ -397,7 +397,9 @@ class BranchingTracker:
         self.sigma_w = list(c.process_std)  # type: ignore[arg-type]
         self.sigma_d = list(c.diffusion_std)  # type: ignore[arg-type]
         self.R = np.array([v**2 for v in c.measurement_std])  # type: ignore[union-attr]
-        self.man = None if c.maneuver_std is None else list(c.maneuver_std)  # type: ignore[arg-type]
+        self.man: list[float] | None = (
+            None if c.maneuver_std is None else [float(v) for v in c.maneuver_std]  # type: ignore[union-attr]
+        )
         self.man_prob = c.maneuver_prob
         self.d = [o + 1 for o in self.order]
         self.off = np.concatenate([[0], np.cumsum(self.d)]).astype(int)
@@ -749,7 +751,10 @@ class BranchingTracker:
             if held[i] >= 0 and c.llr[i] >= self.final_llr and c.hits[i] >= self.min_hits:
                 owner.setdefault(int(held[i]), int(c.tree[i]))
         lost = np.array(
-            [held[i] >= 0 and owner.get(int(held[i]), c.tree[i]) != c.tree[i] for i in range(c.size)],
+            [
+                held[i] >= 0 and owner.get(int(held[i]), c.tree[i]) != c.tree[i]
+                for i in range(c.size)
+            ],
             dtype=bool,
         )
         for i in np.flatnonzero(lost & c.conf):
@@ -787,7 +792,11 @@ class BranchingTracker:
             kept: list[int] = []
             for y in members:  # oldest first, best score first among equals
                 for o in kept:
-                    if c.tree[o] != c.tree[y] and c.start[o] < c.start[y] and self._dominated(c, y, o):
+                    if (
+                        c.tree[o] != c.tree[y]
+                        and c.start[o] < c.start[y]
+                        and self._dominated(c, y, o)
+                    ):
                         dead[y] = True
                         break
                 else:
