@@ -21,28 +21,27 @@ one BLAS thread, when threadpoolctl is installed); outputs cross-checked (decisi
 log-likelihoods to 1e-8 relative). Claims: ``kalmanfield.experiments.type_confusion`` on a
 grid of parameters (1,000 runs per type).
 
-Run: ``python benches/bench_filterbank.py [--quick]`` (``--quick``: small sizes, no files
-written; a test calls it).
+Run: ``python benches/bench_filterbank.py [--quick]``; the report is printed and written to
+the benchmark page ``docs/benchmarks/filterbank.md`` with the plot
+``docs/images/filterbank_confusion.png`` (``--quick``: small sizes, no plot, the page to
+``bench_out/filterbank.md``; a test calls it; other non-default sizes: page and plot to
+``bench_out/``).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
-import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from bench_page import ROOT, SCRATCH, write_page
 
 import kalmanfield as kf
 from kalmanfield.experiments import ACCELERATION, VELOCITY, source_banks, type_confusion
 from kalmanfield.reference import filterbank as ref
 from kalmanfield.reference.kalman import LN_2PI, gain, predict
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def four_types() -> list[kf.LinearGaussianModel]:
@@ -155,22 +154,6 @@ def best_time(fn: Callable[[], object], repeats: int) -> float:
     return min(times)
 
 
-def machine() -> str:
-    model = platform.processor() or "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return (
-        f"{model}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-        f"load average {load:.1f} at the start (other jobs share the cores)"
-    )
-
-
 def speed(n_traj: int, frames: int, repeats: int) -> tuple[list[str], float]:
     models = four_types()
     per = -(-n_traj // 4)
@@ -281,35 +264,20 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=1000)
     args = parser.parse_args()
+    full_run = not args.quick and vars(args) == vars(parser.parse_args([]))
     if args.quick:
         args.trajectories, args.frames, args.repeats, args.runs = 64, 12, 1, 20
-    host = machine()
-    speed_lines, ratio = speed(args.trajectories, args.frames, args.repeats)
+    speed_lines, _ = speed(args.trajectories, args.frames, args.repeats)
     print("\n".join(speed_lines))
     claim_lines = claims(args.runs, args.frames)
     print("\n".join(claim_lines))
-    if args.quick:
-        return
-    plot(ROOT / "docs" / "images" / "filterbank_confusion.png", args.runs, args.frames)
-    today = datetime.date.today().isoformat()
-    page = [
-        "# Benchmark: Kalman filter bank",
-        "",
-        f"Written by `benches/bench_filterbank.py` on {today}; machine: {host}. "
-        "Timings vary up to 2× between runs on this shared VM: compare within one run.",
-        "",
-        "## Speed",
-        "",
-        *speed_lines,
-        "",
-        "## The source's claims",
-        "",
-        *claim_lines,
-        "",
-        "![confusion vs frame](../images/filterbank_confusion.png)",
-        "",
-    ]
-    (ROOT / "docs" / "benchmarks" / "filterbank.md").write_text("\n".join(page))
+    report = ["## Speed", "", *speed_lines, "", "## The source's claims", "", *claim_lines]
+    if not args.quick:
+        images = ROOT / "docs" / "images" if full_run else SCRATCH
+        images.mkdir(parents=True, exist_ok=True)
+        plot(images / "filterbank_confusion.png", args.runs, args.frames)
+        report += ["", "![confusion vs frame](../images/filterbank_confusion.png)"]
+    write_page("filterbank", "Benchmark: Kalman filter bank", "\n".join(report), full_run=full_run)
 
 
 if __name__ == "__main__":

@@ -640,7 +640,7 @@ def nl_means(z: np.ndarray) -> np.ndarray:
     return denoise_nl_means(z, h=0.8 * s, sigma=s, fast_mode=True, patch_size=5, patch_distance=6)
 
 
-KF_KEYS = ("kf", "kf_stationary", "kf_noise", "kf_vector")
+KF_KEYS = ("kf", "kf_adaptive", "kf_stationary", "kf_noise", "kf_vector")
 
 
 def denoisers() -> dict[str, tuple[str, Callable[[np.ndarray], np.ndarray]]]:
@@ -651,10 +651,14 @@ def denoisers() -> dict[str, tuple[str, Callable[[np.ndarray], np.ndarray]]]:
     s = NOISE_SIGMA
     return {
         "noisy": ("noisy input", lambda z: z),
-        "kf": ("`kf.denoise(z)` (adaptive, all estimated)", kf.denoise),
+        "kf": ("`kf.denoise(z)` (all estimated, the filter chosen by SURE)", kf.denoise),
+        "kf_adaptive": (
+            '`kf.denoise(z, method="adaptive")`',
+            lambda z: kf.denoise(z, method="adaptive"),
+        ),
         "kf_stationary": (
-            "`kf.denoise(z, adaptive=False)` (one stationary model)",
-            lambda z: kf.denoise(z, adaptive=False),
+            '`kf.denoise(z, method="stationary")` (one stationary model)',
+            lambda z: kf.denoise(z, method="stationary"),
         ),
         "kf_noise": ("`kf.denoise(z, noise_var=σ²)`", lambda z: kf.denoise(z, noise_var=s**2)),
         "kf_vector": (

@@ -53,12 +53,15 @@ numpydoc_attributes_as_param_list = False
 # optional on methods and properties) and SS05 (a heuristic that takes a summary starting
 # with a plural noun, "Segments of a frame", for a verb in the third person).
 numpydoc_validation_checks = {"all", "GL01", "ES01", "SA01", "EX01", "SS05"}
-# Objects that are not this package's (inherited from object/dataclass machinery).
+# Objects that are not this package's (inherited from object/dataclass machinery, and the
+# tuple methods count/index of the named tuples).
 numpydoc_validation_exclude = {
     r"\.__init__$",
     r"\.__repr__$",
     r"\.__eq__$",
     r"\.__hash__$",
+    r"\.count$",
+    r"\.index$",
 }
 
 # -- HTML -------------------------------------------------------------------------------------

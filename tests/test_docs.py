@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import kalmanfield as kf
+from kalmanfield import experiments, trajectory
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
@@ -30,47 +31,72 @@ READ_FILES = sorted(
         ROOT / "CHANGELOG.md",
     ]
 )
+#: the names the API pages document: every name of kalmanfield.__all__, and the functions and
+#: classes of the subpackages that users import by their own path ("experiments.type_confusion",
+#: the trajectory domain's result types and plots: "trajectory.plot_gains")
+PUBLIC = {name: getattr(kf, name) for name in kf.__all__} | {
+    f"{sub.__name__.rpartition('.')[2]}.{name}": getattr(sub, name)
+    for sub in (experiments, trajectory)
+    for name in sub.__all__
+    if callable(getattr(sub, name)) and name not in kf.__all__
+}
 SECTION = re.compile(r"§(\d+(?:\.\d+)?)(?:[–-](\d+(?:\.\d+)?))?")
 SOURCE_CITATION = re.compile(r"\[(?:P|K93|K95|F|I)\b[^\]]*\]")
 
 
 def api_page_names() -> list[str]:
-    """The names listed in the autosummary blocks of docs/api/*.md."""
+    """The names listed in the autosummary blocks of docs/api/*.md, relative to kalmanfield
+    (a block under ``.. currentmodule:: kalmanfield.experiments`` lists
+    "experiments.<name>")."""
+    directive = re.compile(r"\.\. currentmodule:: (\S+)\n|\.\. autosummary::\n((?:   .*\n|\n)+)")
     names = []
     for page in sorted((DOCS / "api").glob("*.md")):
-        for block in re.findall(r"\.\. autosummary::\n((?:   .*\n|\n)+)", page.read_text()):
-            names += [line.strip() for line in block.splitlines() if line.strip()]
-    return [n for n in names if not n.startswith(":")]
+        prefix = ""
+        for module, block in directive.findall(page.read_text()):
+            if module:
+                prefix = module[len("kalmanfield") :].lstrip(".")
+                continue
+            for line in block.splitlines():
+                if line.strip() and not line.strip().startswith(":"):
+                    names.append(f"{prefix}.{line.strip()}" if prefix else line.strip())
+    return names
 
 
 def test_api_pages_list_every_public_name_once():
     names = api_page_names()
-    assert sorted(names) == sorted(kf.__all__)
+    assert sorted(names) == sorted(PUBLIC)
 
 
-@pytest.mark.parametrize("name", kf.__all__)
+@pytest.mark.parametrize("name", PUBLIC)
 def test_public_name_has_an_examples_section(name):
-    doc = inspect.getdoc(getattr(kf, name)) or ""
+    doc = inspect.getdoc(PUBLIC[name]) or ""
     assert re.search(r"^Examples\n-{8}", doc, re.M), f"{name} has no Examples section"
 
 
 def public_members(obj):
-    """`obj` and, for a class, its public methods and properties defined in kalmanfield."""
+    """`obj` and, for a class, its public methods (static and class methods included) and
+    properties defined in kalmanfield (in the class or a kalmanfield base class)."""
     yield obj
     if inspect.isclass(obj):
-        for attr, member in vars(obj).items():
+        members = {}
+        for cls in reversed(obj.__mro__):
+            if cls.__module__.startswith("kalmanfield"):
+                members |= vars(cls)
+        for attr, member in members.items():
+            if isinstance(member, (staticmethod, classmethod)):
+                member = member.__func__
             if not attr.startswith("_") and (
                 inspect.isfunction(member) or isinstance(member, property)
             ):
                 yield member.fget if isinstance(member, property) else member
 
 
-@pytest.mark.parametrize("name", kf.__all__)
+@pytest.mark.parametrize("name", PUBLIC)
 def test_examples_run(name):
     finder = doctest.DocTestFinder(recurse=False)
     flags = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
     runner = doctest.DocTestRunner(optionflags=flags)
-    for member in public_members(getattr(kf, name)):
+    for member in public_members(PUBLIC[name]):
         for test in finder.find(member, f"kalmanfield.{name}", module=False, globs={}):
             runner.run(test)
     assert runner.failures == 0, f"{runner.failures} failing example(s) in {name} (output above)"

@@ -189,6 +189,25 @@ def tracking_figure() -> None:
     save(fig, "guide_tracking.png")
 
 
+def trajectory_figures() -> None:
+    from kalmanfield.trajectory import plot_change_points, plot_gain_comparison
+
+    for figure in (1, 2):
+        save(plot_gain_comparison(figure, n=15), f"guide_trajectory_gains_fig{figure}.png")
+    rng = np.random.default_rng(7)
+    t = np.arange(200.0)
+    truth = np.where(t < 120, 0.3 * t, 0.3 * 120 - 0.2 * (t - 120))  # a velocity jump at 120
+    truth[60:] += 6.0  # and a position jump at 60
+    z = truth + rng.normal(0, 1.0, t.size)
+    found = kf.ChangeDetector(kf.FuzzyFilter(P=2.0, Q=0.05, R=1.0, P_vel=0.5, Q_vel=0.002)).run(z)
+    fig, ax = plt.subplots(figsize=(7, 3))
+    plot_change_points(z, found, ax=ax)
+    ax.plot(t, truth, "--", color="0.2", lw=0.8, label="truth")
+    ax.legend(fontsize=8)
+    ax.set_title(f"cusum alarms at samples {[int(i) for i in found.indices()]}", fontsize=9)
+    save(fig, "guide_trajectory_change_points.png")
+
+
 def main() -> None:
     OUT.mkdir(exist_ok=True)
     field_figures()
@@ -196,6 +215,7 @@ def main() -> None:
     rowfilter_figures()
     denoising_figure()
     tracking_figure()
+    trajectory_figures()
 
 
 if __name__ == "__main__":

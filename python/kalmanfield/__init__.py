@@ -3,12 +3,15 @@ sequences, with a Rust core.
 
 The package is organised by domain: :mod:`kalmanfield.field` (random fields),
 :mod:`kalmanfield.identification`, :mod:`kalmanfield.rowfilter` (row Kalman filters),
-:mod:`kalmanfield.denoising` and :mod:`kalmanfield.tracking`; every public name is also
-here at the top level. The method pages of the documentation give the formulas and sources.
+:mod:`kalmanfield.denoising`, :mod:`kalmanfield.tracking`, :mod:`kalmanfield.filterbank`
+(object types from trajectories) and :mod:`kalmanfield.trajectory` (fuzzy and Kalman filters
+of a parameter's trajectory, change points); every public name is also here at the top level.
+The sources' Monte Carlo studies are in :mod:`kalmanfield.experiments`. The method pages of the
+documentation give the formulas and sources.
 """
 
 from . import _compat
-from .denoising import denoise, estimate_noise_var, local_moments
+from .denoising import denoise, estimate_noise_var, estimate_sigma, local_moments
 from .field import ARFieldModel, FieldStream, sample_product_field
 from .filterbank import IMMEstimator, LinearGaussianModel, TypeIdentifier
 from .identification import (
@@ -23,14 +26,18 @@ from .identification import (
 )
 from .rowfilter import ScalarRowFilter, VectorRowFilter, wiener_bound, wiener_error_map
 from .tracking import BranchingTracker, TrackerConfig, link, segment
+from .trajectory import ChangeDetector, FuzzyFilter, KalmanFilterCV, effective_memory
 
 __all__ = [
     "ARFieldModel",
     "AxisFit",
     "BranchingTracker",
+    "ChangeDetector",
     "FieldStream",
+    "FuzzyFilter",
     "IMMEstimator",
     "IdentifiedModel",
+    "KalmanFilterCV",
     "LinearGaussianModel",
     "ScalarRowFilter",
     "TrackerConfig",
@@ -39,10 +46,12 @@ __all__ = [
     "WhitenessTest",
     "YuleWalkerModel",
     "denoise",
+    "effective_memory",
     "estimate_noise_var",
-    "local_moments",
+    "estimate_sigma",
     "identify",
     "link",
+    "local_moments",
     "model_from_noisy",
     "sample_correlation",
     "sample_product_field",

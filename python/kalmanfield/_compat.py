@@ -3,9 +3,15 @@ subpackages: old imports (``kalmanfield.scalar_row_filter``…) and old pickles 
 
 from __future__ import annotations
 
+import functools
 import importlib.abc
 import importlib.util
 import sys
+import warnings
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 #: old module (under kalmanfield) → today's
 MOVED = {
@@ -61,3 +67,34 @@ class _OldPaths(importlib.abc.MetaPathFinder):
         if fullname == old or old not in MOVED:
             return None
         return importlib.util.spec_from_loader(fullname, _Alias(f"kalmanfield.{MOVED[old]}"))
+
+
+def keyword_only(*names: str) -> Callable[[F], F]:
+    """Lets a function whose parameters `names` became keyword-only still take them by
+    position, as 0.1.0 did, with a DeprecationWarning naming them."""
+
+    def wrap(func: F) -> F:
+        @functools.wraps(func)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            head, extra = args[:1], args[1:]
+            if extra:
+                if len(extra) > len(names):
+                    raise TypeError(
+                        f"{func.__name__}() takes 1 positional argument but {len(args)} were given"
+                    )
+                given = names[: len(extra)]
+                warnings.warn(
+                    f"pass {', '.join(given)} to {func.__name__}() by keyword "
+                    f"({func.__name__}(image, {given[0]}=…)); by position is deprecated",
+                    DeprecationWarning,
+                    stacklevel=2,
+                )
+                for name, value in zip(given, extra):
+                    if name in kwargs:
+                        raise TypeError(f"{func.__name__}() got {name} twice")
+                    kwargs[name] = value
+            return func(*head, **kwargs)
+
+        return call  # type: ignore[return-value]
+
+    return wrap

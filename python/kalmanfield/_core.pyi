@@ -258,3 +258,100 @@ class IMMEstimator:
     def frame(self) -> int: ...
     def state_bytes(self) -> bytes: ...
     def load_state(self, state: bytes) -> None: ...
+
+# ---- trajectory: fuzzy and Kalman trajectory filters, change points (method page "Fuzzy filter")
+MAX_SPREAD: float
+MAX_SAMPLE: float
+MAX_WINDOW: int
+
+@final
+class TrajectoryModel:
+    def __new__(
+        cls,
+        rule: str,
+        p: float,
+        q: float,
+        r: float,
+        p_vel: float,
+        q_vel: float,
+        r_vel: float | None = None,
+    ) -> TrajectoryModel: ...
+    def gains(self, times: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    def filter(
+        self,
+        z: npt.NDArray[np.float64],
+        times: npt.NDArray[np.float64] | None = None,
+        z_vel: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def filter_into(
+        self,
+        z: npt.NDArray[np.float64],
+        pos: npt.NDArray[np.float64],
+        vel: npt.NDArray[np.float64],
+        times: npt.NDArray[np.float64] | None = None,
+        z_vel: npt.NDArray[np.float64] | None = None,
+        threads: int | None = None,
+    ) -> None: ...
+    @property
+    def rule(self) -> str: ...
+
+@final
+class FilterBank:
+    def __new__(cls, model: TrajectoryModel, series: int) -> FilterBank: ...
+    def step(
+        self,
+        t: float,
+        z: npt.NDArray[np.float64],
+        z_vel: npt.NDArray[np.float64] | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    @property
+    def series(self) -> int: ...
+    def state(self) -> npt.NDArray[np.float64]: ...
+    def load_state(self, state: npt.NDArray[np.float64]) -> None: ...
+
+@final
+class DetectorConfig:
+    def __new__(
+        cls, method: str, confidence: float, window: int, drift: float
+    ) -> DetectorConfig: ...
+    @property
+    def threshold(self) -> float: ...
+
+@final
+class DetectorBank:
+    def __new__(
+        cls, model: TrajectoryModel, config: DetectorConfig, series: int
+    ) -> DetectorBank: ...
+    def step(
+        self,
+        t: float,
+        z: npt.NDArray[np.float64],
+        z_vel: npt.NDArray[np.float64] | None = None,
+    ) -> tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.float64],
+    ]: ...
+    @property
+    def series(self) -> int: ...
+    def state(self) -> npt.NDArray[np.float64]: ...
+    def load_state(self, state: npt.NDArray[np.float64]) -> None: ...
+
+def detect_changes(
+    model: TrajectoryModel,
+    config: DetectorConfig,
+    z: npt.NDArray[np.float64],
+    times: npt.NDArray[np.float64] | None = None,
+    z_vel: npt.NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.bool_],
+    npt.NDArray[np.float64],
+]: ...
+def cusum_threshold(confidence: float, drift: float) -> float: ...
+def cusum_arl(h: float, drift: float) -> float: ...
+def effective_memory(alpha: float, beta: float, tau: float, level: float) -> int: ...

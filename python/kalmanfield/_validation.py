@@ -234,6 +234,16 @@ def check_given_noise_output(out: np.ndarray, limit: float | None = None) -> Non
         )
 
 
+def boolean_mask(mask: npt.ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """`mask` checked as a boolean array of `shape` (True = leave the pixel out)."""
+    m = np.asarray(mask)
+    if m.shape != shape:
+        raise ValueError(f"mask must have the shape {shape} of {name}, got {m.shape}")
+    if m.dtype != np.bool_:
+        raise TypeError(f"mask must be a boolean array, got dtype {m.dtype}")
+    return m
+
+
 def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str = "data"):
     """Data as a fresh C-ordered float64 array with NaN at every missing pixel, plus the
     boolean array of valid pixels.
@@ -253,11 +263,7 @@ def observed(data: npt.ArrayLike, mask: npt.ArrayLike | None = None, name: str =
     except (TypeError, ValueError) as err:
         raise TypeError(f"{name} must be a numeric array: {err}") from None
     if mask is not None:
-        m = np.asarray(mask)
-        if m.shape != values.shape:
-            raise ValueError(f"mask must have the shape {values.shape} of {name}, got {m.shape}")
-        if m.dtype != np.bool_:
-            raise TypeError(f"mask must be a boolean array, got dtype {m.dtype}")
+        m = boolean_mask(mask, values.shape, name)
         missing = m if missing is None else (missing | m)
     valid = np.isfinite(values)
     if missing is not None:

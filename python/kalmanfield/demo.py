@@ -51,7 +51,7 @@ def _filtering_demo(out: Path, size: int, seed: int) -> dict[str, float]:
         "VectorRowFilter (optimal, causal)": optimal.filter,
         "ScalarRowFilter (O(W) per row, causal)": causal.filter,
         "ScalarRowFilter smooth=True": smoothed.filter,
-        "denoise (model and noise estimated)": lambda image: denoise(image, adaptive=False),
+        "denoise (model and noise estimated)": lambda image: denoise(image, method="stationary"),
     }
     mse = {"noisy image": float(np.mean((z - x) ** 2))}
     print(f"filtering: {model!r} + white noise (σ_θ² = {noise_var}), {size}²: MSE (ms)")

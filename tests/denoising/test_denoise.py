@@ -35,8 +35,10 @@ def test_a_window_wider_than_the_image_covers_it(window):
     mean, var = local_moments(z, window)
     np.testing.assert_allclose(mean, np.full(z.shape, z.mean()), atol=1e-12)
     np.testing.assert_allclose(var, np.full(z.shape, z.var()), atol=1e-12)
-    wide = kf.denoise(z, 0.1, window=window, threads=1)
-    np.testing.assert_array_equal(wide, kf.denoise(z, 0.1, window=19, threads=1))
+    wide = kf.denoise(z, noise_var=0.1, method="adaptive", window=window, threads=1)
+    np.testing.assert_array_equal(
+        wide, kf.denoise(z, noise_var=0.1, method="adaptive", window=19, threads=1)
+    )
 
 
 def test_pixels_whose_moments_overflow_are_refused_not_a_hang():
@@ -100,7 +102,14 @@ def test_adaptive_denoise_equals_reference(rho, order, radius, smooth):
     clean = np.add.outer(np.sin(0.3 * np.arange(19)), 2.0 * (np.arange(23) > 11))
     z = clean + 0.3 * rng.standard_normal(clean.shape)
     model = kf.ARFieldModel(list(rho), list(order))
-    got = kf.denoise(z, noise_var=0.09, model=model, smooth=smooth, window=2 * radius + 1)
+    got = kf.denoise(
+        z,
+        noise_var=0.09,
+        method="adaptive",
+        detail_model=model,
+        smooth=smooth,
+        window=2 * radius + 1,
+    )
     want = ref_adaptive(z, 0.09, rho, order, radius, smooth=smooth)
     np.testing.assert_allclose(got, want, atol=1e-10, rtol=0)
     assert np.mean((got - clean) ** 2) < 0.5 * np.mean((z - clean) ** 2)
@@ -117,7 +126,9 @@ def test_adaptive_denoise_with_missing_pixels_equals_reference(smooth, row_model
     z = clean + 0.3 * rng.standard_normal(clean.shape)
     z[rng.random(z.shape) < 0.2] = np.nan
     z[5:14, 3:12] = np.nan
-    got = kf.denoise(z, noise_var=0.09, smooth=smooth, window=5, row_models=row_models)
+    got = kf.denoise(
+        z, noise_var=0.09, method="adaptive", smooth=smooth, window=5, row_models=row_models
+    )
     want = ref_adaptive(z, 0.09, (0.7, 0.7), (1, 1), 2, smooth=smooth, row_models=row_models)
     np.testing.assert_allclose(got, want, atol=1e-10, rtol=0)
     missing = np.isnan(z)
@@ -137,8 +148,9 @@ def test_denoise_fills_missing_pixels_of_a_natural_image(adaptive):
     z = clean + 0.1 * rng.standard_normal(clean.shape)
     holes = np.where(rng.random(z.shape) < 0.2, np.nan, z)
     missing = np.isnan(holes)
-    got = kf.denoise(holes, adaptive=adaptive)
-    complete = kf.denoise(z, adaptive=adaptive)
+    method = "adaptive" if adaptive else "stationary"
+    got = kf.denoise(holes, method=method)
+    complete = kf.denoise(z, method=method)
     assert np.mean((got - clean)[missing] ** 2) < 0.6 * 0.01
     observed = np.mean((got - clean)[~missing] ** 2)
     assert observed < 1.1 * np.mean((complete - clean)[~missing] ** 2)
@@ -198,13 +210,14 @@ def test_adaptive_denoise_gives_the_same_bits_whatever_ran_before():
     boxes (two more buffers) carries over, and threads=k gives the same bits."""
     rng = np.random.default_rng(5)
     small = np.cumsum(rng.standard_normal((30, 40)), axis=1)
-    first = kf.denoise(small, noise_var=0.5)
+    first = kf.denoise(small, noise_var=0.5, method="adaptive")
     large = np.cumsum(rng.standard_normal((90, 70)), axis=1)
     large[rng.random(large.shape) < 0.3] = np.nan
     large[10:40, 10:40] = np.nan
-    assert np.all(np.isfinite(kf.denoise(large, noise_var=0.5)))
-    np.testing.assert_array_equal(kf.denoise(small, noise_var=0.5), first)
-    np.testing.assert_array_equal(kf.denoise(small, noise_var=0.5, threads=2), first)
+    assert np.all(np.isfinite(kf.denoise(large, noise_var=0.5, method="adaptive")))
+    np.testing.assert_array_equal(kf.denoise(small, noise_var=0.5, method="adaptive"), first)
+    again = kf.denoise(small, noise_var=0.5, method="adaptive", threads=2)
+    np.testing.assert_array_equal(again, first)
 
 
 def test_a_stack_frame_with_no_observed_pixel():
@@ -215,13 +228,13 @@ def test_a_stack_frame_with_no_observed_pixel():
     z = np.stack([model.sample((24, 32), seed=s) for s in range(3)])
     z += 0.7 * rng.standard_normal(z.shape)
     z[1] = np.nan
-    out = kf.denoise(z, 0.49, model, adaptive=False, mean=0.25)
+    out = kf.denoise(z, noise_var=0.49, model=model, mean=0.25)
     np.testing.assert_array_equal(out[1], np.full((24, 32), 0.25))
     for f in (0, 2):
-        alone = kf.denoise(z[f], 0.49, model, adaptive=False, mean=0.25)
+        alone = kf.denoise(z[f], noise_var=0.49, model=model, mean=0.25)
         np.testing.assert_allclose(out[f], alone, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="no observed pixel"):
-        kf.denoise(z, 0.49, model)
+        kf.denoise(z, noise_var=0.49, method="adaptive")
 
 
 @pytest.mark.parametrize("holes", [False, True])
@@ -249,37 +262,39 @@ def test_local_moments_of_data_of_any_magnitude(holes):
     assert np.isfinite(v[~np.isnan(v)]).all()
 
 
-@pytest.mark.parametrize("adaptive", [True, False])
-def test_denoise_of_data_of_any_magnitude(adaptive):
+@pytest.mark.parametrize("method", ["adaptive", "stationary", "auto"])
+def test_denoise_of_data_of_any_magnitude(method):
     """Scale-equivariant to the bit (a power of two): the adaptive mode lost 1e-4 of its
     precision at 1e-160 and refused 1e153 (its box moments overflowed), the stationary one
     refused both (σ beyond its range)."""
     model = kf.ARFieldModel([0.95, 0.95], [1, 1])
     z = model.sample((24, 30), seed=1) + 0.3 * np.random.default_rng(2).standard_normal((24, 30))
-    unit = kf.denoise(z, adaptive=adaptive)
+    unit = kf.denoise(z, method=method)
     for k in (-1000, -530, 510, 1000):
-        np.testing.assert_array_equal(
-            kf.denoise(np.ldexp(z, k), adaptive=adaptive), np.ldexp(unit, k)
-        )
-    given = kf.denoise(z, 0.09, model, mean=0.5, adaptive=adaptive)
+        np.testing.assert_array_equal(kf.denoise(np.ldexp(z, k), method=method), np.ldexp(unit, k))
+    field = {} if method == "adaptive" else {"model": model}
+    scaled_field = (
+        {} if method == "adaptive" else {"model": kf.ARFieldModel(model.rho, model.order, 2.0**450)}
+    )
+    given = kf.denoise(z, noise_var=0.09, method=method, mean=0.5, **field)
     scaled = kf.denoise(
         np.ldexp(z, 450),
-        0.09 * 2.0**900,
-        model if adaptive else kf.ARFieldModel(model.rho, model.order, 2.0**450),
+        noise_var=0.09 * 2.0**900,
+        method=method,
         mean=2.0**450 * 0.5,
-        adaptive=adaptive,
+        **scaled_field,
     )
     np.testing.assert_array_equal(scaled, np.ldexp(given, 450))
     with pytest.raises(ValueError, match="overflow float64"):  # noise_var 2^-1200 of z²
-        kf.denoise(np.ldexp(z, 600), 1.0, adaptive=adaptive)
+        kf.denoise(np.ldexp(z, 600), noise_var=1.0, method=method)
 
 
-@pytest.mark.parametrize("adaptive", [True, False])
+@pytest.mark.parametrize("method", ["adaptive", "stationary"])
 @pytest.mark.parametrize(
     "mean,exc", [(np.nan, ValueError), (np.inf, ValueError), ("0", TypeError), (1j, TypeError)]
 )
-def test_denoise_checks_mean_in_both_modes(adaptive, mean, exc):
+def test_denoise_checks_mean_in_both_modes(method, mean, exc):
     """(the adaptive mode ignored an invalid mean silently; the stationary one parsed "0")"""
     z = np.random.default_rng(3).standard_normal((10, 12))
     with pytest.raises(exc, match="mean must"):
-        kf.denoise(z, 0.5, mean=mean, adaptive=adaptive)
+        kf.denoise(z, noise_var=0.5, mean=mean, method=method)

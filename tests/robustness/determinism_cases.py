@@ -53,8 +53,9 @@ def _cases(threads: int | None) -> dict[str, Callable[[], Any]]:
         "scalar filter toeplitz": lambda: kf.ScalarRowFilter(
             MODEL, 0.25, 96, smooth=True, modes="toeplitz", **t
         ).filter(z),
-        "denoise adaptive": lambda: kf.denoise(z, **t),
-        "denoise stationary": lambda: kf.denoise(z, adaptive=False, **t),
+        "denoise adaptive": lambda: kf.denoise(z, method="adaptive", **t),
+        "denoise auto": lambda: kf.denoise(z, **t),
+        "denoise stationary": lambda: kf.denoise(z, method="stationary", **t),
         "identify": lambda: _identified(kf.identify(z, max_order=3, axes=(1, 2), **t)),
         "segment stack": lambda: kf.segment(z, 1.5),
         "local_moments stack": lambda: kf.local_moments(z, 7),

@@ -186,14 +186,14 @@ def test_thread_counts_out_of_range_are_refused(threads):
         lambda: MODEL.sample((3, 3), threads=threads),
         lambda: kf.ScalarRowFilter(row, 1.0, 8, threads=threads),
         lambda: kf.VectorRowFilter(row, 1.0, 8, threads=threads),
-        lambda: kf.denoise(z + 1.0, 0.1, threads=threads),
+        lambda: kf.denoise(z + 1.0, noise_var=0.1, threads=threads),
         lambda: kf.identify(MODEL.sample((16, 16), seed=1), threads=threads),
     ]
     for call in calls:
         with pytest.raises(ValueError, match="threads"):
             call()
     with pytest.raises(TypeError, match="threads"):
-        kf.denoise(z, 0.1, threads=1.5)
+        kf.denoise(z, noise_var=0.1, threads=1.5)
 
 
 def test_far_lags_correlate_by_zero_not_nan():

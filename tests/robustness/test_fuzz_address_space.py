@@ -37,7 +37,10 @@ OVERSIZE = [
     ),
     # (was an abort: memory allocation failed)
     ("scalar error_variance 1e8 rows", "kf.ScalarRowFilter(MODEL, 1.0, 16).error_variance(10**8)"),
-    ("denoise 6 GB stack", "kf.denoise(np.zeros((1, 2, 2)) + np.zeros((6000, 360, 360)), 0.1)"),
+    (
+        "denoise 6 GB stack",
+        "kf.denoise(np.zeros((1, 2, 2)) + np.zeros((6000, 360, 360)), noise_var=0.1)",
+    ),
 ]
 if LONG:
     OVERSIZE += [
@@ -52,7 +55,7 @@ if LONG:
 ORDINARY = [
     ("scalar filter 512 wide", "kf.ScalarRowFilter(MODEL, 0.5, 512).filter(np.ones((64, 512)))"),
     ("sample 100 MB", "MODEL.sample((3000, 4000), seed=1)"),
-    ("denoise 512²", "kf.denoise(MODEL.sample((512, 512), seed=1), 0.1)"),
+    ("denoise 512²", "kf.denoise(MODEL.sample((512, 512), seed=1), noise_var=0.1)"),
     # (aborted: faer's products reserved twice the L3 cache per thread, 960 MiB here)
     ("vector filter 64 wide", "kf.VectorRowFilter(MODEL, 0.5, 64).filter(np.ones((8, 64)))"),
     (

@@ -433,7 +433,7 @@ ENTRIES = [
     ),
     Entry(
         "denoise (stationary)",
-        lambda **kw: kf.denoise(adaptive=False, **kw),
+        lambda **kw: kf.denoise(method="stationary", **kw),
         dict(image=IMAGE, noise_var=0.09),
         dict(image=_images(), mean=_scalars(), model=MODELS[:2] + MODELS[3:]),
         valid={"mean=None", "model=None"},

@@ -142,7 +142,7 @@ def test_row_models_are_checked_and_pickled():
     with pytest.raises(ValueError, match="'auto', 'propagated', 'nominal' or 'implied'"):
         kf.ScalarRowFilter(model, 1.0, 8, row_models="exact")
     with pytest.raises(ValueError, match="row_models must be 'propagated', 'nominal' or 'impl"):
-        kf.denoise(np.ones((8, 8)), 0.1, row_models="plan")
+        kf.denoise(np.ones((8, 8)), noise_var=0.1, row_models="plan")
     for row_models in ("nominal", "implied"):
         filt = kf.ScalarRowFilter(model, 1.0, 8, smooth=True, row_models=row_models)
         assert pickle.loads(pickle.dumps(filt)).row_models == row_models
@@ -211,7 +211,7 @@ def test_bad_input():
         kf.ScalarRowFilter(model, 1.0, 6, modes="fourier")
     with pytest.raises(ValueError, match="NaN"):
         kf.VectorRowFilter(model, 1.0, 6).filter(np.full((5, 6), np.nan))
-    with pytest.raises(ValueError, match="adaptive"):
+    with pytest.raises(ValueError, match="adaptive"), pytest.warns(DeprecationWarning):
         kf.denoise(np.random.default_rng(0).standard_normal((8, 8)), method="vector", adaptive=True)
     for window in (4, 0, -3):
         with pytest.raises(ValueError, match="window"):
@@ -228,9 +228,9 @@ def test_bad_input():
     holes = np.where(noisy > 1, np.nan, noisy)
     with pytest.raises(ValueError, match="NaN"):
         kf.denoise(holes, noise_var=1.0, method="vector")
-    for adaptive in (True, False):
+    for method in ("adaptive", "stationary", "auto"):
         with pytest.raises(ValueError, match="every pixel is NaN"):
-            kf.denoise(np.full((8, 8), np.nan), noise_var=1.0, adaptive=adaptive)
+            kf.denoise(np.full((8, 8), np.nan), noise_var=1.0, method=method)
     with pytest.raises(ValueError, match="missing"):
         kf.estimate_noise_var(np.where(np.add.outer(range(8), range(8)) % 2, np.nan, noisy))
     with pytest.raises(ValueError, match="every pixel is NaN"):

@@ -507,20 +507,20 @@ def test_estimate_noise_var_and_model_from_noisy():
 def test_denoise_reduces_the_error_close_to_the_model_bound():
     model = kf.ARFieldModel([0.9, 0.9], [1, 1])
     x, z = noisy(model, (128, 128), 1.0, 4)
-    for method in ("scalar", "vector"):
-        est = kf.denoise(z, noise_var=1.0, model=model, method=method, adaptive=False)
+    for method in ("stationary", "vector"):
+        est = kf.denoise(z, noise_var=1.0, model=model, method=method)
         mse = np.mean((est - x) ** 2)
         assert mse < 0.5 * np.mean((z - x) ** 2)
         assert mse == pytest.approx(kf.wiener_bound(model, 1.0, (128, 128)), rel=0.1)
-    blind = kf.denoise(z, adaptive=False)  # noise level and model estimated from z
+    blind = kf.denoise(z, method="stationary")  # noise level and model estimated from z
     assert np.mean((blind - x) ** 2) < 1.1 * np.mean((est - x) ** 2)
-    adaptive = kf.denoise(z)  # local mean/variance: no better on a stationary field
+    adaptive = kf.denoise(z, method="adaptive")  # local moments: no better when stationary
     assert np.mean((est - x) ** 2) < np.mean((adaptive - x) ** 2) < 0.6 * np.mean((z - x) ** 2)
     img8 = np.clip(40 * z + 128, 0, 255).astype(np.uint8)
     assert kf.denoise(img8).shape == img8.shape
     # `mean` is the stationary model's mean: None is the image mean, and the estimate moves
     # with the mean it is given (the filter acts on the deviation from it)
-    kw = dict(noise_var=1.0, model=model, adaptive=False)
+    kw = dict(noise_var=1.0, model=model, method="stationary")
     np.testing.assert_allclose(kf.denoise(z, **kw), kf.denoise(z, mean=z.mean(), **kw), atol=1e-12)
     shifted = kf.denoise(z + 5.0, mean=5.5, **kw)
     np.testing.assert_allclose(shifted, kf.denoise(z, mean=0.5, **kw) + 5.0, atol=1e-11)
@@ -529,18 +529,18 @@ def test_denoise_reduces_the_error_close_to_the_model_bound():
 
 
 def test_blind_stationary_denoise_loses_nothing_to_the_toeplitz_modes():
-    """denoise(adaptive=False) filters its fitted model with the Toeplitz mode set (cheap
+    """denoise(method="stationary") filters its fitted model with the Toeplitz mode set (cheap
     plan): on coins, σ = 0.1, its MSE is within 0.5 % of the default spliced ends' (measured:
     PSNR within 0.002 dB), and the noise is well reduced."""
     data = pytest.importorskip("skimage.data")
     clean = data.coins() / 255.0
     z = clean + 0.1 * np.random.default_rng(0).standard_normal(clean.shape)
     model, mean, _ = kf.model_from_noisy(z)
-    m = max(model.order[1], 2)  # denoise's row model (its docstring, adaptive=False)
+    m = max(model.order[1], 2)  # denoise's row model (its docstring, method="stationary")
     nv = kf.estimate_noise_var(z)
     ends = kf.ScalarRowFilter(model, nv, z.shape[1], m, smooth=True, mean=mean)
     want = np.mean((ends.filter(z) - clean) ** 2)
-    got = np.mean((kf.denoise(z, adaptive=False) - clean) ** 2)
+    got = np.mean((kf.denoise(z, method="stationary") - clean) ** 2)
     assert got == pytest.approx(want, rel=0.005)
     assert got < 0.4 * 0.01
 
@@ -549,10 +549,11 @@ def test_an_empty_stack_gives_an_empty_result():
     z = np.zeros((0, 4, 8), dtype=np.float32)
     for got in (
         kf.denoise(z),
-        kf.denoise(z, adaptive=False),
+        kf.denoise(z, method="stationary"),
         kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.8], [1, 2]), 1.0, 8).filter(z),
     ):
-        assert got.shape == z.shape and got.dtype == np.float64
+        assert got.shape == z.shape
+    assert kf.denoise(z).dtype == np.float32  # denoise answers in the input's float type
 
 
 @pytest.mark.parametrize("order", [(4, 1), (4, 2), (4, 3), (3, 3)])
@@ -835,7 +836,9 @@ def test_the_row_filters_are_scale_free(scale):
     bound = kf.wiener_bound(big, 0.25 * scale**2, (24, 20)) / scale**2
     assert bound == pytest.approx(kf.wiener_bound(unit, 0.25, (24, 20)), rel=1e-12)
     np.testing.assert_allclose(
-        kf.denoise(z * scale, adaptive=False) / scale, kf.denoise(z, adaptive=False), atol=1e-8
+        kf.denoise(z * scale, method="stationary") / scale,
+        kf.denoise(z, method="stationary"),
+        atol=1e-8,
     )
     with pytest.raises(ValueError, match="out of float64's normal range"):
         kf.ScalarRowFilter(kf.ARFieldModel([0.9, 0.9], [1, 1], sigma=1e-153), 1e160, 8)
@@ -872,7 +875,7 @@ def test_a_noise_variance_too_small_for_the_start_is_refused_at_construction(ord
         ),
         (lambda m: kf.ScalarRowFilter(kf.ARFieldModel(0.5, 1), 1.0, 8), ValueError, "2-axis"),
         (
-            lambda m: kf.denoise(np.ones((8, 8)), noise_var=1.0, adaptive=False),
+            lambda m: kf.denoise(np.ones((8, 8)), noise_var=1.0, method="stationary"),
             ValueError,
             "constant",
         ),

@@ -34,11 +34,50 @@ def source_banks(
     ndim: int = 2,
     dt: float = 1.0,
 ) -> dict[str, list[LinearGaussianModel]]:
-    """The two banks of source [I]: two types differing by the correlation coefficient ρ_i,
-    either of the velocity ([I] eq. 7: ``markov_velocity``) or of the acceleration ([I]
-    eq. 8: ``singer``), both driven by white noise of std ``driving_std`` (so the stationary
-    std is driving_std / √(1 − ρ_i²)). Priors: position N(0, (10 σ_z)²), velocity N(0, 1)
-    where not stationary, the Markov component at its stationary variance."""
+    """The two banks of the source's experiment.
+
+    Each bank holds two types differing by the correlation coefficient ρ_i, either of the
+    velocity ([I] eq. 7: :meth:`~kalmanfield.LinearGaussianModel.markov_velocity`) or of the
+    acceleration ([I] eq. 8: :meth:`~kalmanfield.LinearGaussianModel.singer`), both driven
+    by white noise of std `driving_std` (so the stationary std is
+    driving_std / √(1 − ρ_i²)).
+
+    Parameters
+    ----------
+    rho : tuple of float, default (0.9, 0.5)
+        The types' correlation coefficients, each in (−1, 1).
+    driving_std : float, default 0.1
+        Standard deviation of the white noise driving the Markov component (positive).
+    measurement_std : float, default 3.0
+        Standard deviation σ_z of the measured positions (positive).
+    ndim : int, default 2
+        Number of spatial axes.
+    dt : float, default 1.0
+        Time step between frames.
+
+    Returns
+    -------
+    dict of str to list of LinearGaussianModel
+        Two banks, keyed by the labels ``VELOCITY`` (``"velocity (7)"``) and
+        ``ACCELERATION`` (``"velocity + acceleration (8)"``), each with one model per ρ_i.
+
+    Raises
+    ------
+    ValueError
+        A ρ_i outside (−1, 1), or a non-positive std, `ndim` or `dt`.
+
+    Notes
+    -----
+    Priors: position N(0, (10 σ_z)²), velocity N(0, 1) where it is not stationary, the
+    Markov component at its stationary variance (§6.7 of :doc:`/methods/kalman_bank`).
+
+    Examples
+    --------
+    >>> from kalmanfield.experiments import ACCELERATION, source_banks
+    >>> banks = source_banks(rho=(0.9, 0.5))
+    >>> [m.name for m in banks[ACCELERATION]]
+    ['rho=0.9 (a)', 'rho=0.5 (a)']
+    """
     sz = positive_float(measurement_std, "measurement_std")
     w = positive_float(driving_std, "driving_std")
     banks: dict[str, list[LinearGaussianModel]] = {VELOCITY: [], ACCELERATION: []}
@@ -62,27 +101,100 @@ def source_banks(
 
 @dataclass
 class TypeConfusion:
-    """Result of :func:`type_confusion`.
+    """The result of :func:`type_confusion`: confusion probability per bank and frame.
 
-    ``table`` has one row per bank and frame: ``bank``, ``frame`` (1-based), ``confusion``
-    (probability that the maximum-posterior type is wrong, averaged over the true types),
-    ``low`` and ``high`` (95 % Wilson interval) and ``trials`` (runs × types)."""
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        One row per bank and frame: ``bank``, ``frame`` (1-based), ``confusion``
+        (probability that the maximum-posterior type is wrong, averaged over the true
+        types), ``low`` and ``high`` (95 % Wilson interval) and ``trials`` (runs × types).
+
+    Examples
+    --------
+    >>> from kalmanfield.experiments import ACCELERATION, VELOCITY, type_confusion
+    >>> result = type_confusion(n_frames=10, runs=100, progress=False)
+    >>> sorted(result.table["bank"].unique()) == sorted([VELOCITY, ACCELERATION])
+    True
+    """
 
     table: pd.DataFrame
 
     def confusion(self, bank: str) -> pd.Series:
-        """Confusion probability per frame of one bank."""
+        """The confusion probability per frame of one bank.
+
+        Parameters
+        ----------
+        bank : str
+            The bank's label (a key of the `models` given to :func:`type_confusion`).
+
+        Returns
+        -------
+        pandas.Series
+            The confusion probability, indexed by frame (1-based).
+
+        Examples
+        --------
+        >>> from kalmanfield.experiments import VELOCITY, type_confusion
+        >>> result = type_confusion(n_frames=10, runs=100, progress=False)
+        >>> result.confusion(VELOCITY).index.tolist() == list(range(1, 11))
+        True
+        """
         rows = self.table[self.table["bank"] == bank]
         return rows.set_index("frame")["confusion"]
 
     def ratio(self, numerator: str, denominator: str) -> pd.Series:
-        """Per frame, confusion of `numerator` / confusion of `denominator`."""
+        """The ratio of two banks' confusion probabilities, per frame.
+
+        Parameters
+        ----------
+        numerator : str
+            The label of the bank in the numerator.
+        denominator : str
+            The label of the bank in the denominator.
+
+        Returns
+        -------
+        pandas.Series
+            Confusion of `numerator` / confusion of `denominator`, indexed by frame (inf or
+            NaN where the denominator is 0).
+
+        Examples
+        --------
+        >>> from kalmanfield.experiments import ACCELERATION, VELOCITY, type_confusion
+        >>> result = type_confusion(n_frames=10, runs=100, progress=False)
+        >>> len(result.ratio(VELOCITY, ACCELERATION))
+        10
+        """
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.confusion(numerator) / self.confusion(denominator)
 
     def plot(self, ax: Any = None) -> Any:
-        """Confusion vs frame per bank with its 95 % interval (matplotlib, an optional
-        extra); returns the Axes."""
+        """Plot the confusion probability against the frame, one line per bank.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            The axes to draw on (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes, with each bank's 95 % interval shaded.
+
+        Notes
+        -----
+        Needs matplotlib (an optional extra), imported when called.
+
+        Examples
+        --------
+        >>> import matplotlib
+        >>> matplotlib.use("Agg")
+        >>> from kalmanfield.experiments import type_confusion
+        >>> ax = type_confusion(n_frames=10, runs=100, progress=False).plot()
+        >>> ax.get_ylabel()
+        'confusion probability'
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -115,7 +227,7 @@ def type_confusion(
     progress: bool = True,
     threads: int | None = None,
 ) -> TypeConfusion:
-    """Monte Carlo confusion probability of the type vs frame number [I, fig. 3].
+    """Monte Carlo confusion probability of the type against the frame number [I, fig. 3].
 
     For every bank, ``runs`` trajectories of each type are simulated from that type's model
     (its prior included) and identified by the bank (maximum posterior, equal priors); the
@@ -127,13 +239,13 @@ def type_confusion(
     models : mapping of str to sequence of LinearGaussianModel, optional
         Banks by label. Default: :func:`source_banks` (velocity-only vs velocity +
         acceleration types with ρ = 0.9 and 0.5, driving std 0.1, measurement std 3).
-    n_frames : int
+    n_frames : int, default 100
         Frames per trajectory.
-    runs : int
+    runs : int, default 1000
         Trajectories per type (the source averaged 100).
-    seed : int, numpy Generator or None
+    seed : int, numpy.random.Generator or None, default 0
         Seed of the simulations (bank b, type i uses a stream derived from it).
-    progress : bool
+    progress : bool, default True
         Show a tqdm progress bar over the banks' types.
     threads : int, optional
         Threads of the identification (default all cores).
@@ -143,10 +255,22 @@ def type_confusion(
     TypeConfusion
         The table (with 95 % Wilson intervals) and a ``plot`` method.
 
+    Raises
+    ------
+    ValueError
+        A non-positive `n_frames` or `runs`, a bad seed, or a bank that
+        :class:`~kalmanfield.TypeIdentifier` refuses.
+    TypeError
+        A bank that is not a sequence of LinearGaussianModel.
+
+    See Also
+    --------
+    source_banks : The default banks.
+
     Notes
     -----
-    See the method page *Kalman filter bank*, "The source's claims", for the parameters
-    where acceleration modelling cuts confusion by more than 2× and where it does not.
+    §6.7 of :doc:`/methods/kalman_bank` lists the parameters where acceleration modelling
+    cuts the confusion by more than 2× and where it does not.
 
     Examples
     --------

@@ -20,9 +20,11 @@ from .._validation import (
     finite_noise,
     float_dtype,
     grid_shape,
+    peak_magnitude,
     positive_float,
     positive_int,
     real_array,
+    real_number,
     real_value,
     resolve_seed,
     thread_count,
@@ -268,6 +270,8 @@ class ARFieldModel:
         noise: npt.ArrayLike | None = None,
         dtype: npt.DTypeLike = np.float64,
         threads: int | None = None,
+        *,
+        mean: float = 0.0,
     ) -> np.ndarray:
         """One realisation on a grid, exactly stationary up to the edges.
 
@@ -289,6 +293,9 @@ class ARFieldModel:
             rounding stays below ~1e-3 σ; other models are made in float64 and rounded once.
         threads : int, optional
             Number of threads (None: all cores).
+        mean : float, default 0.0
+            Added to every element: the field's mean (e.g. ``identify(data).mean``, so a
+            sample of a fitted model looks like the data).
 
         Returns
         -------
@@ -300,7 +307,8 @@ class ARFieldModel:
         ValueError
             A shape that does not match the model, given noise of the wrong shape or not
             finite (or whose field leaves the dtype's range), a model whose exact start is
-            beyond float64 (see :doc:`/accuracy`).
+            beyond float64 (see :doc:`/accuracy`), a mean that is not finite or moves the
+            field out of the dtype's range.
         MemoryError
             A grid larger than the machine's memory.
 
@@ -326,9 +334,14 @@ class ARFieldModel:
         out = allocate(dims, dt)
         seed_value = 0 if given is not None else resolve_seed(seed)
         threads = thread_count(threads)
+        mean = real_number(mean, "mean")
         self._core.sample_into(out, seed_value, given, threads)
         if given is not None:
             check_given_noise_output(out)
+        if mean:
+            out += out.dtype.type(mean)
+            if not np.isfinite(peak_magnitude(out)):
+                raise ValueError(f"the field plus mean {mean:g} leaves {out.dtype}'s range")
         return out
 
     def stream(

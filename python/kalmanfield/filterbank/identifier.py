@@ -60,23 +60,39 @@ class TypeIdentifier:
     TypeError
         Models that are not LinearGaussianModel.
 
+    See Also
+    --------
+    LinearGaussianModel : The candidate types.
+    IMMEstimator : For objects that switch type mid-track.
+
     Notes
     -----
     A stream follows one trajectory (frames of shape (m,)) or a batch of B trajectories
     (frames (B, m)); a batch runs in Rust over all trajectories at once, threads over
     trajectories, the GIL released. A NaN row is a missed frame (prediction only). The
-    identifier pickles mid-stream and resumes exactly. See the method page *Kalman filter
-    bank*.
+    identifier pickles mid-stream and resumes exactly. The bank, the decisions and the
+    batches are §6.3–6.5 of :doc:`/methods/kalman_bank`.
+
+    The likelihoods include the first frames, where the models' priors weigh most. Wald's
+    test stops at its first crossing, so give the types priors of comparable spread: the
+    default prior of :meth:`LinearGaussianModel.singer` is diffuse in velocity, that of
+    :meth:`LinearGaussianModel.markov_velocity` is not, and that difference alone can decide
+    the test at the second frame.
 
     Examples
     --------
     >>> import kalmanfield as kf
-    >>> calm = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.95, sigma=1.0, name="calm")
-    >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.8, sigma_a=0.5, name="agile")
-    >>> _, z = agile.simulate(60, seed=1, start=[0, 1, 0, 0, -1, 0])
+    >>> calm = kf.LinearGaussianModel.markov_velocity(
+    ...     1.0, rho=0.98, sigma=0.5, measurement_std=0.5, name="calm"
+    ... )
+    >>> agile = kf.LinearGaussianModel.singer(
+    ...     1.0, rho=0.6, sigma_a=0.8, measurement_std=0.5, name="agile"
+    ... )
+    >>> _, z = agile.simulate(60, seed=1, start=[0, 1, 0, 0, 0, 0])
     >>> ident = kf.TypeIdentifier([calm, agile])
-    >>> int(ident.run(z)[-1]), ident.names[ident.decision]
-    (1, 'agile')
+    >>> decisions = ident.run(z)  # the decision after every frame
+    >>> ident.names[ident.decision], ident.posterior.round(3)
+    ('agile', array([0., 1.]))
     """
 
     def __init__(
@@ -108,27 +124,27 @@ class TypeIdentifier:
     # ------------------------------------------------------------------ properties
     @property
     def models(self) -> list[LinearGaussianModel]:
-        """The candidate types."""
+        """The candidate types (a list of LinearGaussianModel)."""
         return list(self._models)
 
     @property
     def names(self) -> list[str]:
-        """The models' names."""
+        """The models' names (a list of str)."""
         return [m.name for m in self._models]
 
     @property
     def priors(self) -> np.ndarray:
-        """Prior type probabilities."""
+        """The prior type probabilities (K,)."""
         return np.array(self._priors)
 
     @property
     def sequential(self) -> bool:
-        """Whether decisions come from Wald's test (alpha and beta given)."""
+        """Whether the decisions come from Wald's test (alpha and beta given)."""
         return self._errors[0] is not None
 
     @property
     def thresholds(self) -> tuple[float, float] | None:
-        """(lower, upper) thresholds of L_1 − L_0 for Wald's test, else None."""
+        """The (lower, upper) thresholds of L_1 − L_0 of Wald's test, or None."""
         alpha, beta = self._errors
         if alpha is None or beta is None:
             return None
@@ -136,19 +152,19 @@ class TypeIdentifier:
 
     @property
     def frame(self) -> int:
-        """Frames processed."""
+        """The number of frames processed."""
         return self._core.frame
 
     @property
     def log_likelihoods(self) -> np.ndarray:
-        """Accumulated log-likelihood ln p(z_1..z_k | type i): (K,), or (B, K) for a batch."""
+        """The accumulated log-likelihoods ln p(z_1..z_k | type i): (K,), or (B, K)."""
         if self._batched is None:
             return np.zeros(len(self._models))
         return self._shaped(self._core.log_likelihoods())
 
     @property
     def posterior(self) -> np.ndarray:
-        """Posterior type probabilities: (K,), or (B, K) for a batch."""
+        """The posterior type probabilities: (K,), or (B, K) for a batch."""
         if self._batched is None:
             return self.priors
         return self._shaped(self._core.posterior())
@@ -166,8 +182,42 @@ class TypeIdentifier:
 
     # ------------------------------------------------------------------ processing
     def update(self, measurement: npt.ArrayLike, threads: int | None = None) -> Any:
-        """Processes one frame: (m,) for one trajectory, (B, m) for a batch; a NaN row is a
-        missed frame. Returns :attr:`decision`."""
+        """Process one frame.
+
+        Parameters
+        ----------
+        measurement : array-like
+            (m,) for one trajectory, (B, m) for a batch; a row of NaN is a missed frame.
+        threads : int, optional
+            Number of threads for a batch (None: all cores).
+
+        Returns
+        -------
+        int or numpy.ndarray
+            :attr:`decision` after the frame: a type index (−1 = undecided), or (B,) int64
+            for a batch.
+
+        Raises
+        ------
+        ValueError
+            A frame of the wrong shape, a row partly NaN or with an infinite value, or a
+            frame that does not continue the stream (one trajectory against a batch, or
+            another batch size).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import kalmanfield as kf
+        >>> calm = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.98, sigma=0.5, name="calm")
+        >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.6, sigma_a=0.8, name="agile")
+        >>> ident = kf.TypeIdentifier([calm, agile])
+        >>> ident.update([0.0, 0.0])
+        0
+        >>> ident.update([np.nan, np.nan])  # a missed frame
+        0
+        >>> ident.frame
+        2
+        """
         z, batched = frame_batch(measurement, self._models[0].measurement_dim)
         self._advance(z, batched, thread_count(threads), False)
         return self.decision
@@ -179,15 +229,46 @@ class TypeIdentifier:
         return_log_likelihoods: bool = False,
         threads: int | None = None,
     ) -> Any:
-        """Processes frames (continuing the stream): (n_frames, m) for one trajectory,
-        (n_trajectories, n_frames, m) for a batch, NaN rows missed.
+        """Process a run of frames, continuing the stream.
+
+        Parameters
+        ----------
+        measurements : array-like
+            (n_frames, m) for one trajectory, (n_trajectories, n_frames, m) for a batch;
+            a row of NaN is a missed frame.
+        return_log_likelihoods : bool, default False
+            Also return the accumulated log-likelihoods after every frame.
+        threads : int, optional
+            Number of threads for a batch (None: all cores).
 
         Returns
         -------
-        decisions : ndarray of int64, (n_frames,) or (n_trajectories, n_frames)
-            The decision after every frame (−1 = undecided).
-        log_likelihoods : ndarray, (n_frames, K) or (n_trajectories, n_frames, K)
-            The accumulated log-likelihoods after every frame, if ``return_log_likelihoods``.
+        decisions : numpy.ndarray
+            The decision after every frame (−1 = undecided): int64, (n_frames,) or
+            (n_trajectories, n_frames).
+        log_likelihoods : numpy.ndarray
+            The accumulated log-likelihoods after every frame, (n_frames, K) or
+            (n_trajectories, n_frames, K); only if `return_log_likelihoods`.
+
+        Raises
+        ------
+        ValueError
+            Measurements of the wrong shape, a row partly NaN or with an infinite value, or
+            a run that does not continue the stream (one trajectory against a batch, or
+            another batch size).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import kalmanfield as kf
+        >>> calm = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.98, sigma=0.5, name="calm")
+        >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.6, sigma_a=0.8, name="agile")
+        >>> batch = agile.simulate(40, 8, seed=3, start=[0, 1, 0, 0, 0, 0])[1]
+        >>> decisions, ll = kf.TypeIdentifier([calm, agile]).run(
+        ...     batch, return_log_likelihoods=True
+        ... )
+        >>> decisions.shape, ll.shape
+        ((8, 40), (8, 40, 2))
         """
         z, batched = run_batch(measurements, self._models[0].measurement_dim)
         decisions, ll = self._advance(z, batched, thread_count(threads), return_log_likelihoods)
@@ -213,23 +294,56 @@ class TypeIdentifier:
         columns: Sequence[str] = ("x", "y"),
         threads: int | None = None,
     ) -> pd.DataFrame:
-        """Identifies the type of every particle of a tracker's output.
+        """Identify the type of every particle of a tracker's output.
 
         Parameters
         ----------
-        tracks : DataFrame
-            Columns ``frame``, ``particle`` and the measured ``columns`` (default x, y), as
-            written by trackpy, :class:`kalmanfield.BranchingTracker` or the template
-            tracker. Frames a particle skips between its first and last are missed frames.
-        models, priors, alpha, beta
-            As for :class:`TypeIdentifier` (the models observe ``len(columns)`` values).
+        tracks : pandas.DataFrame
+            Columns ``frame``, ``particle`` and the measured `columns`, as written by
+            trackpy, :class:`~kalmanfield.BranchingTracker` or the template tracker. Frames
+            a particle skips between its first and last are missed frames.
+        models : sequence of LinearGaussianModel
+            The candidate types, observing ``len(columns)`` values.
+        priors : array-like, optional
+            Prior type probabilities (default uniform), as for :class:`TypeIdentifier`.
+        alpha : float, optional
+            Wald's test: P(decide type 1 | type 0), as for :class:`TypeIdentifier`.
+        beta : float, optional
+            Wald's test: P(decide type 0 | type 1), as for :class:`TypeIdentifier`.
+        columns : sequence of str, default ("x", "y")
+            The measured columns.
+        threads : int, optional
+            Number of threads (None: all cores).
 
         Returns
         -------
-        DataFrame
+        pandas.DataFrame
             One row per particle: ``particle``, ``first_frame``, ``last_frame``,
             ``n_observed``, ``decision`` (index, −1 undecided), ``type`` (the model's name or
             ``"undecided"``), ``posterior_<name>`` and ``log_likelihood_<name>`` per model.
+
+        Raises
+        ------
+        TypeError
+            `tracks` is not a DataFrame, or a model is not a LinearGaussianModel.
+        ValueError
+            Missing columns, an empty table, non-integer frames, a particle with two rows
+            for one frame, or models and settings :class:`TypeIdentifier` refuses.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import pandas as pd
+        >>> import kalmanfield as kf
+        >>> calm = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.98, sigma=0.5, name="calm")
+        >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.6, sigma_a=0.8, name="agile")
+        >>> _, z = calm.simulate(30, seed=0, start=[0, 1, 0, 0])
+        >>> tracks = pd.DataFrame(
+        ...     {"frame": np.arange(30), "particle": 7, "x": z[:, 0], "y": z[:, 1]}
+        ... )
+        >>> kf.TypeIdentifier.run_tracks(tracks, [calm, agile])[["particle", "n_observed", "type"]]
+           particle  n_observed  type
+        0         7          30  calm
         """
         ident = TypeIdentifier(models, priors, alpha, beta)
         z, info = tracks_to_batch(tracks, columns)

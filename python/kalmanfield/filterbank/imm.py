@@ -27,13 +27,12 @@ class IMMRun(NamedTuple):
 
 
 class IMMEstimator:
-    """Interacting-multiple-model estimator: K models of one state space, switching by a
-    Markov chain, for objects that change type mid-track.
+    """Interacting-multiple-model estimator, for objects that change type mid-track.
 
-    Each frame mixes the models' estimates with the mode transition probabilities, predicts
-    and updates every model, reweights the modes by their innovation likelihoods and
-    combines the estimates (Blom & Bar-Shalom; the conventions of FilterPy's
-    ``IMMEstimator``, to which it is tested equal).
+    K models of one state space switch by a Markov chain. Each frame mixes the models'
+    estimates with the mode transition probabilities, predicts and updates every model,
+    reweights the modes by their innovation likelihoods and combines the estimates (Blom &
+    Bar-Shalom; the conventions of FilterPy's ``IMMEstimator``, to which it is tested equal).
 
     Parameters
     ----------
@@ -49,16 +48,23 @@ class IMMEstimator:
     Raises
     ------
     ValueError
-        Models of different state or measurement lengths, a transition matrix that is not
-        K × K or whose rows do not sum to 1, mode probabilities not summing to 1.
+        Fewer than two models, models of different state or measurement lengths, a
+        transition matrix that is not K × K or whose rows are not probability vectors,
+        mode probabilities not summing to 1.
+    TypeError
+        Models that are not LinearGaussianModel.
+
+    See Also
+    --------
+    TypeIdentifier : One type per trajectory, decided from the whole track.
 
     Notes
     -----
     Batches (B, n_frames, m) run in Rust, one thread task per trajectory (the mixing makes
     every trajectory's covariances data-dependent, so nothing is shared). A NaN row is a
     missed frame: states predicted, μ ← c̄ = μ M (FilterPy has no missed-frame rule). The
-    estimator pickles mid-stream and resumes exactly. See the method page *Kalman filter
-    bank*, "IMM".
+    estimator pickles mid-stream and resumes exactly. The recursion is §6.6 of
+    :doc:`/methods/kalman_bank`.
 
     Examples
     --------
@@ -98,36 +104,36 @@ class IMMEstimator:
 
     @property
     def models(self) -> list[LinearGaussianModel]:
-        """The modes' models."""
+        """The modes' models (a list of LinearGaussianModel)."""
         return list(self._models)
 
     @property
     def transition(self) -> np.ndarray:
-        """The mode transition matrix M."""
+        """The mode transition matrix M (K × K, a copy)."""
         return self._transition.copy()
 
     @property
     def frame(self) -> int:
-        """Frames processed."""
+        """The number of frames processed."""
         return self._core.frame
 
     @property
     def x(self) -> np.ndarray:
-        """Combined state estimate: (n,), or (B, n) for a batch."""
+        """The combined state estimate: (n,), or (B, n) for a batch."""
         if self._batched is None:
             return self._prior_mixture()[0]
         return self._shaped(self._core.combined()[0])
 
     @property
     def P(self) -> np.ndarray:  # noqa: N802 - FilterPy's name
-        """Combined state covariance: (n, n), or (B, n, n) for a batch."""
+        """The combined state covariance: (n, n), or (B, n, n) for a batch."""
         if self._batched is None:
             return self._prior_mixture()[1]
         return self._shaped(self._core.combined()[1])
 
     @property
     def mu(self) -> np.ndarray:
-        """Mode probabilities: (K,), or (B, K) for a batch."""
+        """The mode probabilities: (K,), or (B, K) for a batch."""
         if self._batched is None:
             return np.array(self._mu)
         return self._shaped(self._core.mode_probabilities())
@@ -144,14 +150,75 @@ class IMMEstimator:
         return a if self._batched else a[0]
 
     def update(self, measurement: npt.ArrayLike, threads: int | None = None) -> np.ndarray:
-        """Processes one frame ((m,) or (B, m); a NaN row is missed); returns :attr:`x`."""
+        """Process one frame.
+
+        Parameters
+        ----------
+        measurement : array-like
+            (m,) for one trajectory, (B, m) for a batch; a row of NaN is a missed frame.
+        threads : int, optional
+            Number of threads for a batch (None: all cores).
+
+        Returns
+        -------
+        numpy.ndarray
+            :attr:`x`, the combined state estimate after the frame: (n,), or (B, n).
+
+        Raises
+        ------
+        ValueError
+            A frame of the wrong shape, a row partly NaN or with an infinite value, or a
+            frame that does not continue the stream (one trajectory against a batch, or
+            another batch size).
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> calm = kf.LinearGaussianModel.singer(1.0, rho=0.0, sigma_a=0.0, name="calm")
+        >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.8, sigma_a=1.0, name="agile")
+        >>> imm = kf.IMMEstimator([calm, agile], [[0.95, 0.05], [0.05, 0.95]])
+        >>> imm.update([1.0, 0.5]).shape, imm.mu.shape, imm.frame
+        ((6,), (2,), 1)
+        """
         z, batched = frame_batch(measurement, self._models[0].measurement_dim)
         self._advance(z, batched, threads)
         return self.x
 
     def run(self, measurements: npt.ArrayLike, threads: int | None = None) -> IMMRun:
-        """Processes (n_frames, m) or (n_trajectories, n_frames, m) measurements, continuing
-        the stream; returns the per-frame :class:`IMMRun`."""
+        """Process a run of frames, continuing the stream.
+
+        Parameters
+        ----------
+        measurements : array-like
+            (n_frames, m) for one trajectory, (n_trajectories, n_frames, m) for a batch; a
+            row of NaN is a missed frame.
+        threads : int, optional
+            Number of threads for a batch (None: all cores).
+
+        Returns
+        -------
+        IMMRun
+            A named tuple of the per-frame ``state`` (n_frames, n), ``mode_probabilities``
+            (n_frames, K) and ``log_likelihood`` (n_frames,): ln p(z_k | z_1..z_(k−1)), 0
+            on missed frames; a leading trajectory axis for a batch.
+
+        Raises
+        ------
+        ValueError
+            Measurements of the wrong shape, a row partly NaN or with an infinite value, or
+            a run that does not continue the stream (one trajectory against a batch, or
+            another batch size).
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> calm = kf.LinearGaussianModel.singer(1.0, rho=0.0, sigma_a=0.0, name="calm")
+        >>> agile = kf.LinearGaussianModel.singer(1.0, rho=0.8, sigma_a=1.0, name="agile")
+        >>> imm = kf.IMMEstimator([calm, agile], [[0.95, 0.05], [0.05, 0.95]])
+        >>> out = imm.run(agile.simulate(20, 4, seed=0)[1])  # a batch of 4 trajectories
+        >>> out.state.shape, out.mode_probabilities.shape, out.log_likelihood.shape
+        ((4, 20, 6), (4, 20, 2), (4, 20))
+        """
         z, batched = run_batch(measurements, self._models[0].measurement_dim)
         state, modes, ll = self._advance(z, batched, threads)
         if not batched:

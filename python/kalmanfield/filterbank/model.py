@@ -47,7 +47,10 @@ def _diffuse_prior(per_axis: list[float], ndim: int) -> tuple[np.ndarray, np.nda
 
 
 class LinearGaussianModel:
-    """x(k) = F x(k−1) + w, w ~ N(0, Q); z(k) = H x(k) + v, v ~ N(0, R); prior N(x0, P0).
+    """The linear-Gaussian state-space model of one type of object, with its prior.
+
+    x(k) = F x(k−1) + w, w ~ N(0, Q); z(k) = H x(k) + v, v ~ N(0, R); prior N(x0, P0) for
+    the state one step before the first frame.
 
     Parameters
     ----------
@@ -67,14 +70,28 @@ class LinearGaussianModel:
         Inconsistent dimensions, non-finite entries, non-symmetric or indefinite
         covariances.
 
+    See Also
+    --------
+    TypeIdentifier : A bank of these models deciding an object's type.
+    IMMEstimator : These models switching by a Markov chain.
+
     Notes
     -----
     Covariances are stored symmetrised, (A + Aᵀ)/2, after a check that allows asymmetry and
-    negative eigenvalues of 1e-10 relative size. See the method page *Kalman filter bank*.
+    negative eigenvalues of 1e-10 relative size; the arrays are read-only. The model
+    pickles and compares equal (``==``) when its arrays and name are equal. The motion
+    models (:meth:`constant_velocity`, :meth:`constant_acceleration`, :meth:`singer`,
+    :meth:`markov_velocity`) are §6.2 of :doc:`/methods/kalman_bank`.
 
     Examples
     --------
+    >>> import numpy as np
     >>> import kalmanfield as kf
+    >>> walk = kf.LinearGaussianModel(
+    ...     F=[[1.0]], Q=[[0.1]], H=[[1.0]], R=[[0.5]], x0=[0.0], P0=[[1.0]], name="walk"
+    ... )
+    >>> walk
+    LinearGaussianModel(name='walk', state_dim=1, measurement_dim=1)
     >>> m = kf.LinearGaussianModel.singer(dt=1.0, rho=0.9, sigma_a=0.5, ndim=2)
     >>> m.state_dim, m.measurement_dim
     (6, 2)
@@ -112,10 +129,50 @@ class LinearGaussianModel:
         P0: npt.ArrayLike | None = None,
         name: str | None = "constant_velocity",
     ) -> LinearGaussianModel:
-        """Constant velocity, continuous white acceleration of spectral density ``q``:
-        F = [[1, T], [0, 1]], Q = q [[T³/3, T²/2], [T²/2, T]] per axis; positions observed
-        with noise std ``measurement_std``. Default prior: diffuse (std 1000 measurement
-        stds for positions, per frame for velocities)."""
+        """Constant velocity, driven by continuous white acceleration.
+
+        Per axis F = [[1, T], [0, 1]] and Q = q [[T³/3, T²/2], [T²/2, T]] (§6.2 of
+        :doc:`/methods/kalman_bank`).
+
+        Parameters
+        ----------
+        dt : float
+            Time step T between frames (positive).
+        q : float
+            Power spectral density of the white acceleration (non-negative), in
+            length²/time³.
+        ndim : int, default 2
+            Number of spatial axes; the per-axis blocks repeat block-diagonally, the state
+            ordered axis after axis.
+        measurement_std : float, default 1.0
+            Standard deviation σ_z of the measured positions: R = σ_z² I.
+        x0 : array-like, optional
+            Prior mean of the state (default zeros).
+        P0 : array-like, optional
+            Prior covariance of the state (default: diffuse, std 1000 σ_z for positions and
+            1000 σ_z / T for velocities).
+        name : str, optional
+            The type's name (default ``"constant_velocity"``).
+
+        Returns
+        -------
+        LinearGaussianModel
+            The model, positions observed.
+
+        Raises
+        ------
+        ValueError
+            A non-positive `dt`, `ndim` or `measurement_std`, a negative or non-finite `q`,
+            or a prior of the wrong shape.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.constant_velocity(1.0, q=0.1, ndim=1)
+        >>> m.F
+        array([[1., 1.],
+               [0., 1.]])
+        """
         dt, ndim, sz = _axes(dt, ndim, measurement_std)
         f, qm, h, r = _core.kalman_constant_velocity(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt], ndim)
@@ -133,8 +190,48 @@ class LinearGaussianModel:
         P0: npt.ArrayLike | None = None,
         name: str | None = "constant_acceleration",
     ) -> LinearGaussianModel:
-        """Constant acceleration, continuous white jerk of spectral density ``q`` (F and Q on
-        the method page). Default prior: diffuse."""
+        """Constant acceleration, driven by continuous white jerk.
+
+        Per axis F = [[1, T, T²/2], [0, 1, T], [0, 0, 1]] and Q = q times a fixed matrix of
+        powers of T (written out in §6.2 of :doc:`/methods/kalman_bank`).
+
+        Parameters
+        ----------
+        dt : float
+            Time step T between frames (positive).
+        q : float
+            Power spectral density of the white jerk (non-negative), in length²/time⁵.
+        ndim : int, default 2
+            Number of spatial axes; the per-axis blocks repeat block-diagonally, the state
+            ordered axis after axis.
+        measurement_std : float, default 1.0
+            Standard deviation σ_z of the measured positions: R = σ_z² I.
+        x0 : array-like, optional
+            Prior mean of the state (default zeros).
+        P0 : array-like, optional
+            Prior covariance of the state (default: diffuse, std 1000 σ_z for positions,
+            1000 σ_z / T for velocities and 1000 σ_z / T² for accelerations).
+        name : str, optional
+            The type's name (default ``"constant_acceleration"``).
+
+        Returns
+        -------
+        LinearGaussianModel
+            The model, positions observed.
+
+        Raises
+        ------
+        ValueError
+            A non-positive `dt`, `ndim` or `measurement_std`, a negative or non-finite `q`,
+            or a prior of the wrong shape.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.constant_acceleration(0.5, q=1.0, ndim=2)
+        >>> m.state_dim, m.measurement_dim
+        (6, 2)
+        """
         dt, ndim, sz = _axes(dt, ndim, measurement_std)
         f, qm, h, r = _core.kalman_constant_acceleration(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt, DIFFUSE * sz / dt**2], ndim)
@@ -153,10 +250,52 @@ class LinearGaussianModel:
         P0: npt.ArrayLike | None = None,
         name: str | None = "singer",
     ) -> LinearGaussianModel:
-        """Singer-type manoeuvre model [I]: acceleration a first-order Markov sequence with
-        correlation ``rho`` per frame and stationary std ``sigma_a``;
-        F = [[1, T, T²/2], [0, 1, T], [0, 0, ρ]], Q = diag(0, 0, σ_a²(1 − ρ²)) per axis.
-        Default prior: diffuse position and velocity, stationary acceleration (std σ_a)."""
+        """Singer-type manoeuvre model: the acceleration a first-order Markov sequence.
+
+        Per axis F = [[1, T, T²/2], [0, 1, T], [0, 0, ρ]] and Q = diag(0, 0, σ_a²(1 − ρ²))
+        ([I] eq. 8; §6.2 of :doc:`/methods/kalman_bank`).
+
+        Parameters
+        ----------
+        dt : float
+            Time step T between frames (positive).
+        rho : float
+            Correlation coefficient ρ of the acceleration per frame, in [−1, 1].
+        sigma_a : float
+            Stationary standard deviation σ_a of the acceleration (non-negative).
+        ndim : int, default 2
+            Number of spatial axes; the per-axis blocks repeat block-diagonally, the state
+            ordered axis after axis.
+        measurement_std : float, default 1.0
+            Standard deviation σ_z of the measured positions: R = σ_z² I.
+        x0 : array-like, optional
+            Prior mean of the state (default zeros).
+        P0 : array-like, optional
+            Prior covariance of the state (default: diffuse position and velocity, std
+            1000 σ_z and 1000 σ_z / T; acceleration at its stationary std σ_a).
+        name : str, optional
+            The type's name (default ``"singer"``).
+
+        Returns
+        -------
+        LinearGaussianModel
+            The model, positions observed.
+
+        Raises
+        ------
+        ValueError
+            A non-positive `dt`, `ndim` or `measurement_std`, `rho` outside [−1, 1], a
+            negative or non-finite `sigma_a`, or a prior of the wrong shape.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.singer(1.0, rho=0.5, sigma_a=1.0, ndim=1)
+        >>> m.F
+        array([[1. , 1. , 0.5],
+               [0. , 1. , 1. ],
+               [0. , 0. , 0.5]])
+        """
         dt, ndim, sz = _axes(dt, ndim, measurement_std)
         rho, sigma_a = real_number(rho, "rho"), real_number(sigma_a, "sigma_a")
         f, qm, h, r = _core.kalman_singer(dt, rho, sigma_a, ndim, sz)
@@ -176,9 +315,51 @@ class LinearGaussianModel:
         P0: npt.ArrayLike | None = None,
         name: str | None = "markov_velocity",
     ) -> LinearGaussianModel:
-        """Velocity a first-order Markov sequence with correlation ``rho`` per frame and
-        stationary std ``sigma``: F = [[1, T], [0, ρ]], Q = diag(0, σ²(1 − ρ²)) per axis.
-        Default prior: diffuse position, stationary velocity (std σ)."""
+        """Markov velocity: the velocity a first-order Markov sequence.
+
+        Per axis F = [[1, T], [0, ρ]] and Q = diag(0, σ²(1 − ρ²)) ([I] eq. 7; §6.2 of
+        :doc:`/methods/kalman_bank`).
+
+        Parameters
+        ----------
+        dt : float
+            Time step T between frames (positive).
+        rho : float
+            Correlation coefficient ρ of the velocity per frame, in [−1, 1].
+        sigma : float
+            Stationary standard deviation σ of the velocity (non-negative).
+        ndim : int, default 2
+            Number of spatial axes; the per-axis blocks repeat block-diagonally, the state
+            ordered axis after axis.
+        measurement_std : float, default 1.0
+            Standard deviation σ_z of the measured positions: R = σ_z² I.
+        x0 : array-like, optional
+            Prior mean of the state (default zeros).
+        P0 : array-like, optional
+            Prior covariance of the state (default: diffuse position, std 1000 σ_z;
+            velocity at its stationary std σ).
+        name : str, optional
+            The type's name (default ``"markov_velocity"``).
+
+        Returns
+        -------
+        LinearGaussianModel
+            The model, positions observed.
+
+        Raises
+        ------
+        ValueError
+            A non-positive `dt`, `ndim` or `measurement_std`, `rho` outside [−1, 1], a
+            negative or non-finite `sigma`, or a prior of the wrong shape.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.9, sigma=2.0, ndim=1)
+        >>> m.Q
+        array([[0.  , 0.  ],
+               [0.  , 0.76]])
+        """
         dt, ndim, sz = _axes(dt, ndim, measurement_std)
         rho, sigma = real_number(rho, "rho"), real_number(sigma, "sigma")
         f, qm, h, r = _core.kalman_markov_velocity(dt, rho, sigma, ndim, sz)
@@ -194,50 +375,90 @@ class LinearGaussianModel:
     # ------------------------------------------------------------------ properties
     @property
     def F(self) -> np.ndarray:  # noqa: N802 - the standard name
-        """Transition matrix (n × n)."""
+        """The transition matrix F (n × n, read-only)."""
         return self._arrays[0]
 
     @property
     def Q(self) -> np.ndarray:  # noqa: N802
-        """Process-noise covariance (n × n)."""
+        """The process-noise covariance Q (n × n, read-only)."""
         return self._arrays[1]
 
     @property
     def H(self) -> np.ndarray:  # noqa: N802
-        """Observation matrix (m × n)."""
+        """The observation matrix H (m × n, read-only)."""
         return self._arrays[2]
 
     @property
     def R(self) -> np.ndarray:  # noqa: N802
-        """Measurement-noise covariance (m × m)."""
+        """The measurement-noise covariance R (m × m, read-only)."""
         return self._arrays[3]
 
     @property
     def x0(self) -> np.ndarray:
-        """Prior mean (n,), one step before the first frame."""
+        """The prior mean x0 (n,) of the state one step before the first frame."""
         return self._arrays[4]
 
     @property
     def P0(self) -> np.ndarray:  # noqa: N802
-        """Prior covariance (n × n)."""
+        """The prior covariance P0 (n × n, read-only)."""
         return self._arrays[5]
 
     @property
     def state_dim(self) -> int:
-        """n."""
+        """The length n of the state."""
         return self.F.shape[0]
 
     @property
     def measurement_dim(self) -> int:
-        """m."""
+        """The length m of a measurement."""
         return self.H.shape[0]
 
     def arrays(self) -> tuple[np.ndarray, ...]:
-        """(F, Q, H, R, x0, P0)."""
+        """The model's arrays, as the Rust core takes them.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (F, Q, H, R, x0, P0), read-only.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.9, sigma=1.0, ndim=1)
+        >>> [a.shape for a in m.arrays()]
+        [(2, 2), (2, 2), (1, 2), (1, 1), (2,), (2, 2)]
+        """
         return self._arrays
 
     def with_prior(self, x0: npt.ArrayLike, P0: npt.ArrayLike) -> LinearGaussianModel:  # noqa: N803
-        """The same dynamics with another prior."""
+        """The same dynamics with another prior.
+
+        Parameters
+        ----------
+        x0 : array-like
+            Prior mean (n,) of the state one step before the first frame.
+        P0 : array-like
+            Prior covariance (n × n, symmetric positive semi-definite).
+
+        Returns
+        -------
+        LinearGaussianModel
+            A new model of the same F, Q, H, R and name.
+
+        Raises
+        ------
+        ValueError
+            A prior of the wrong shape, non-finite, asymmetric or indefinite.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.markov_velocity(1.0, rho=0.9, sigma=1.0, ndim=1)
+        >>> m.with_prior(np.zeros(2), np.eye(2)).P0
+        array([[1., 0.],
+               [0., 1.]])
+        """
         f, q, h, r = self._arrays[:4]
         return LinearGaussianModel(f, q, h, r, x0, P0, name=self.name)
 
@@ -250,15 +471,50 @@ class LinearGaussianModel:
         *,
         start: npt.ArrayLike | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(states, measurements) of the model over ``n_frames`` frames.
+        """Simulate states and measurements of the model.
 
-        The state before the first frame is ``start`` (a fixed (n,) vector) or, by default,
-        drawn from the prior N(x0, P0) — which for the motion models' diffuse default prior
-        means velocities of hundreds of measurement stds: give ``start`` (or a prior) for
-        realistic objects. Shapes (n_frames, n) and (n_frames, m), or with a leading
-        ``n_trajectories`` axis. The noises are drawn by NumPy's PCG64 from ``seed``
-        (square roots of the covariances by symmetric eigendecomposition, so semi-definite
-        ones are fine).
+        Parameters
+        ----------
+        n_frames : int
+            Number of frames (non-negative).
+        n_trajectories : int, optional
+            Number of independent trajectories; None (default) simulates one, without the
+            leading trajectory axis.
+        seed : int, numpy.random.Generator or None, default 0
+            Seed of NumPy's PCG64 generator, or a Generator to draw from.
+        start : array-like, optional
+            The state (n,) one step before the first frame, the same for every trajectory.
+            By default it is drawn from the prior N(x0, P0), which for the motion models'
+            diffuse default prior means velocities of hundreds of measurement stds: give
+            `start` (or a prior) for realistic objects.
+
+        Returns
+        -------
+        states : numpy.ndarray
+            (n_frames, n), or (n_trajectories, n_frames, n).
+        measurements : numpy.ndarray
+            (n_frames, m), or (n_trajectories, n_frames, m).
+
+        Raises
+        ------
+        ValueError
+            A negative `n_frames`, a non-positive `n_trajectories`, a bad seed, or a
+            `start` that is not n finite values.
+
+        Notes
+        -----
+        The noises are drawn with square roots of the covariances by symmetric
+        eigendecomposition, so semi-definite covariances are fine.
+
+        Examples
+        --------
+        >>> import kalmanfield as kf
+        >>> m = kf.LinearGaussianModel.singer(1.0, rho=0.5, sigma_a=1.0, ndim=1)
+        >>> states, z = m.simulate(5, seed=0, start=[0.0, 1.0, 0.0])
+        >>> states.shape, z.shape
+        ((5, 3), (5, 1))
+        >>> m.simulate(5, 3, seed=0)[1].shape
+        (3, 5, 1)
         """
         frames = nonnegative_int(n_frames, "n_frames")
         b = 1 if n_trajectories is None else positive_int(n_trajectories, "n_trajectories")

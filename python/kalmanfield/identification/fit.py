@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _core
+from .._channels import check_channel_axis
 from .._validation import observed, positive_int, power_of_two_exponent, thread_count
 from ..field.model import ARFieldModel
 
@@ -42,6 +43,11 @@ class WhitenessTest:
         P(χ²_L ≥ Q).
     residual_correlation : numpy.ndarray
         The residual's correlations r_1..r_L.
+    whitened_with : tuple of float
+        The ρ of each modelled axis the residual was whitened with (of the fitted orders):
+        each refitted on the data whitened along the other axes, the efficient estimate
+        under the model (the reported ρ summarises the correlation along each axis alone;
+        for a true separable field the two agree within the fits' errors).
 
     See Also
     --------
@@ -60,6 +66,7 @@ class WhitenessTest:
     dof: int
     pvalue: float
     residual_correlation: np.ndarray  # r_1..r_L
+    whitened_with: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -169,13 +176,21 @@ class IdentifiedModel:
         """The multiplicity n of each modelled axis (a tuple)."""
         return self.model.order
 
-    def summary(self) -> str:
-        """A text table of the fit: per axis the criterion of every candidate n and the test.
+    def summary(self, level: float = 0.01) -> str:
+        """A text table of the fit, with the verdict in words.
+
+        Parameters
+        ----------
+        level : float, default 0.01
+            The significance level of the whiteness tests.
 
         Returns
         -------
         str
-            One line for the model, one per axis.
+            One line for the model, one per axis (every candidate n's criterion and the
+            test), and a last line saying whether the model is rejected at `level` on any
+            axis (its residual not white: a model of higher order, or another kind of
+            model, is needed there).
         """
         lines = [f"{self.model!r}, mean {self.mean:.6g}"]
         for fit in self.fits:
@@ -187,6 +202,18 @@ class IdentifiedModel:
             lines.append(
                 f"axis {fit.axis}: n={fit.order}, rho={fit.rho:.5f}; Δcriterion {crit}; "
                 f"residual Q={w.statistic:.1f} (dof {w.dof}, p={w.pvalue:.3g})"
+            )
+        rejected = [f.axis for f in self.fits if f.whiteness.pvalue < level]
+        if rejected:
+            lines.append(
+                f"The model is rejected at the {level:g} level: the residual is not white "
+                f"along axis {', '.join(map(str, rejected))} (try a higher max_order, or the "
+                "data are not a separable AR field there)."
+            )
+        else:
+            lines.append(
+                f"The model is not rejected at the {level:g} level: the residual is white "
+                "along every modelled axis."
             )
         return "\n".join(lines)
 
@@ -206,8 +233,11 @@ class IdentifiedModel:
         import matplotlib.pyplot as plt
 
         if axes is None:
-            _, axes = plt.subplots(1, len(self.fits), figsize=(4 * len(self.fits), 3))
-        axes = np.atleast_1d(axes)
+            n = len(self.fits)
+            _, axes = plt.subplots(
+                1, n, figsize=(4.5 * n, 3.5), squeeze=False, constrained_layout=True
+            )
+        axes = np.ravel(axes)
         for ax, fit in zip(axes, self.fits):
             ax.plot(fit.lags, fit.sample_correlation, "o", label="sample")
             ax.plot(fit.lags, fit.fitted_correlation, "-", label=f"n={fit.order}, ρ={fit.rho:.3f}")
@@ -223,6 +253,7 @@ def identify(
     axes: Sequence[int] | None = None,
     *,
     mask: npt.ArrayLike | None = None,
+    channel_axis: int | None = None,
     threads: int | None = None,
 ) -> IdentifiedModel:
     """Identify the separable multiple-root model of an image or a stack.
@@ -244,6 +275,9 @@ def identify(
         independent replicates (colour channels, independent images).
     mask : array_like of bool, optional
         True = leave the pixel out (the ``numpy.ma`` convention).
+    channel_axis : int, optional
+        The axis of colour channels (scikit-image's convention): the channels are
+        replicates of one model, like the axes left out of `axes` (which must not name it).
     threads : int, optional
         Number of threads (None: all cores).
 
@@ -299,7 +333,7 @@ def identify(
     max_order = positive_int(max_order, "max_order")
     if max_order > MAX_IDENTIFIED_ORDER:
         raise ValueError(f"max_order must be at most {MAX_IDENTIFIED_ORDER}, got {max_order}")
-    model_axes = _model_axes(axes, values.ndim)
+    model_axes = _model_axes(axes, values.ndim, check_channel_axis(channel_axis, values.ndim))
     threads = thread_count(threads)
     if not valid.any():
         raise ValueError("data have no valid (finite, unmasked) pixel")
@@ -319,9 +353,33 @@ def identify(
     order = tuple(c[1] for c in choices)
     variance = sample_variance / (1 - _mean_pair_correlation(values.shape, model_axes, rho, order))
     model = ARFieldModel(rho, order, sigma=float(np.sqrt(variance)))
-    residual = _residual(centred, model_axes, rho, order)
-    fits = tuple(_diagnose(centred, residual, k, c, threads) for k, c in zip(model_axes, choices))
+    tested = _tested_rho(centred, model_axes, rho, order)
+    residual = _residual(centred, model_axes, tested, order)
+    fits = tuple(
+        _diagnose(centred, residual, k, c, threads, tested) for k, c in zip(model_axes, choices)
+    )
     return IdentifiedModel(model, mean, variance, sample_variance, model_axes, fits)
+
+
+def _tested_rho(centred, axes, rho, order) -> tuple[float, ...]:
+    """The ρ the whiteness test whitens with: each axis' ρ fitted again (same order) on the
+    data whitened along the other axes, so that its lines are independent and ρ̂ is as
+    precise as the whole grid allows. The reported ρ is the per-axis fit to the correlation
+    along the axis (what :meth:`IdentifiedModel.plot` shows, and the right summary of a real
+    image, which no separable model fits exactly); for a true separable field both estimate
+    the same ρ, but the per-axis one is noisier (a (1,1) ρ = 0.9 on 128²: 3× the efficient
+    SD), and whitened with it the residual failed the test at 1 % in 15 % of true grids."""
+    if len(axes) < 2:
+        return tuple(rho)
+    out: list[float] = []
+    for k, n in zip(axes, order):
+        others = [i for i, a in enumerate(axes) if a != k]
+        partial = _residual(
+            centred, [axes[i] for i in others], [rho[i] for i in others], [order[i] for i in others]
+        )
+        gram, pairs = _core.difference_gram(partial, k, n, None)
+        out.append(_best_rho(gram / max(pairs, 1), n)[0] if pairs > 4 * (n + 1) else rho[len(out)])
+    return tuple(out)
 
 
 def _mean_pair_correlation(shape, axes, rho, order) -> float:
@@ -342,11 +400,12 @@ def _axis_correlation(rho: float, n: int, lags: np.ndarray) -> np.ndarray:
     return ARFieldModel(rho, n).correlation(lags.astype(np.float64))
 
 
-def _model_axes(axes: Sequence[int] | None, ndim: int) -> tuple[int, ...]:
+def _model_axes(axes: Sequence[int] | None, ndim: int, channel: int | None) -> tuple[int, ...]:
+    """The axes that carry the model: `axes` checked, default every axis but the channels'."""
     if axes is None:
-        return tuple(range(ndim))
+        return tuple(a for a in range(ndim) if a != channel)
     items: tuple[Any, ...] = (axes,) if isinstance(axes, numbers.Integral) else tuple(axes)
-    out = []
+    out: list[int] = []
     for a in items:
         if isinstance(a, (bool, np.bool_)) or not isinstance(a, numbers.Integral):
             raise TypeError(f"axes must hold integers, got {a!r}")
@@ -355,6 +414,8 @@ def _model_axes(axes: Sequence[int] | None, ndim: int) -> tuple[int, ...]:
         out.append(int(a) % ndim)
     if not out or len(set(out)) != len(out):
         raise ValueError(f"axes must be distinct and non-empty, got {items}")
+    if channel in out:
+        raise ValueError(f"axes name the channel axis {channel}: channels are replicates")
     return tuple(out)
 
 
@@ -448,7 +509,7 @@ def _residual(centred, axes, rho, order) -> np.ndarray:
     return residual
 
 
-def _diagnose(centred, residual, axis, choice, threads) -> AxisFit:
+def _diagnose(centred, residual, axis, choice, threads, tested) -> AxisFit:
     rho, n, _, rhos, innovation, criterion, pairs = choice
     length = centred.shape[axis]
     lags = np.arange(min(_CORRELATION_LAGS, length - 1) + 1)
@@ -467,16 +528,20 @@ def _diagnose(centred, residual, axis, choice, threads) -> AxisFit:
         lags=lags,
         sample_correlation=sample,
         fitted_correlation=_axis_correlation(rho, n, lags),
-        whiteness=_whiteness(residual, axis, threads),
+        whiteness=_whiteness(residual, axis, threads, tested),
     )
 
 
-def _whiteness(residual: np.ndarray, axis: int, threads: int | None) -> WhitenessTest:
+def _whiteness(
+    residual: np.ndarray, axis: int, threads: int | None, tested: tuple[float, ...]
+) -> WhitenessTest:
     max_lag = max(1, min(_WHITENESS_LAGS, residual.shape[axis] // 4))
     sums, counts = _core.lag_products(residual, axis, max_lag, threads)
     if counts[0] == 0 or not sums[0] > 0:
-        return WhitenessTest(float("nan"), max_lag, float("nan"), np.full(max_lag, np.nan))
+        nan = float("nan")
+        return WhitenessTest(nan, max_lag, nan, np.full(max_lag, np.nan), tested)
     covariance = np.where(counts > 0, sums / np.maximum(counts, 1), 0.0)
     r = covariance[1:] / covariance[0]
     statistic = float(np.sum(counts[1:] * r**2))
-    return WhitenessTest(statistic, max_lag, _core.chi2_sf(statistic, float(max_lag)), r)
+    pvalue = _core.chi2_sf(statistic, float(max_lag))
+    return WhitenessTest(statistic, max_lag, pvalue, r, tested)

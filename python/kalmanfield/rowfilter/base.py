@@ -3,12 +3,22 @@ Python front."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from .._validation import images, positive_float, positive_int, real_number, thread_count
+from .._channels import check_channel_axis, per_channel, warn_if_colour
+from .._validation import (
+    boolean_mask,
+    images,
+    positive_float,
+    positive_int,
+    real_array,
+    real_number,
+    thread_count,
+)
 from ..field.model import ARFieldModel
 
 #: smallest σ_θ²/σ_x² the row filters accept: float64's smallest normal number
@@ -116,17 +126,28 @@ class RowFilter:
         """Whether the RTS smoothing pass over the rows runs."""
         return self._smooth
 
-    def filter(self, z: npt.ArrayLike, *, out: np.ndarray | None = None) -> np.ndarray:
+    def filter(
+        self,
+        z: npt.ArrayLike,
+        *,
+        out: np.ndarray | None = None,
+        channel_axis: int | None = None,
+        mask: npt.ArrayLike | None = None,
+    ) -> np.ndarray:
         """Estimate x from z, one image or a stack of frames.
 
         Parameters
         ----------
         z : array_like
             An image (H, W) or a stack (F, H, W) of width W (frames in parallel, GIL
-            released).
+            released), with a channel axis if `channel_axis` is given.
         out : numpy.ndarray, optional
             Destination: a writeable, C-contiguous float64 array of z's shape sharing no
-            memory with z (a buffer reused over a stream of frames).
+            memory with z (a buffer reused over a stream of frames); not with `channel_axis`.
+        channel_axis : int, optional
+            The axis of colour channels: each channel is filtered as an image of its own.
+        mask : array_like of bool, optional
+            True = a missing pixel (as in ``numpy.ma``), of z's shape.
 
         Returns
         -------
@@ -136,10 +157,43 @@ class RowFilter:
         Raises
         ------
         ValueError
-            Images of the wrong width or dimension, NaN or infinite pixels, pixels with
-            ``abs(z - mean) > 2**1000``, a bad `out`.
+            Images of the wrong width or dimension, NaN or infinite pixels (masked ones too),
+            pixels with ``abs(z - mean) > 2**1000``, a bad `out`, `out` with `channel_axis`.
         """
-        return self._filter_checked(images(z, self._width), out=out)
+        return self._per_channel(
+            z,
+            channel_axis,
+            mask,
+            out,
+            lambda a, o: self._filter_checked(images(a, self._width), out=o),
+        )
+
+    def _per_channel(
+        self,
+        z: npt.ArrayLike,
+        channel_axis: int | None,
+        mask: npt.ArrayLike | None,
+        out: np.ndarray | None,
+        run: Callable[[npt.ArrayLike, np.ndarray | None], np.ndarray],
+    ) -> np.ndarray:
+        """`run(images, out)` on z, NaN at the masked pixels, per channel if `channel_axis`
+        (:mod:`kalmanfield._channels`)."""
+        caller = f"{type(self).__name__}.filter"
+        if channel_axis is None and mask is None:
+            warn_if_colour(np.asarray(z), caller)
+            return run(z, out)
+        arr = real_array(z, "z")
+        if mask is not None:
+            arr = np.where(boolean_mask(mask, arr.shape, "z"), np.nan, arr)
+        axis = check_channel_axis(channel_axis, arr.ndim)
+        if axis is None:
+            warn_if_colour(arr, caller)
+            return run(arr, out)
+        if out is not None:
+            raise ValueError(
+                "out= cannot be combined with channel_axis (a channel is not contiguous)"
+            )
+        return per_channel(arr, axis, lambda channel: run(channel, None))
 
     def _filter_checked(
         self,

@@ -191,6 +191,8 @@ class ScalarRowFilter(RowFilter):
         noise_var: npt.ArrayLike | None = None,
         *,
         out: np.ndarray | None = None,
+        channel_axis: int | None = None,
+        mask: npt.ArrayLike | None = None,
     ) -> np.ndarray:
         """Estimate x from z, one image or a stack of frames.
 
@@ -198,13 +200,18 @@ class ScalarRowFilter(RowFilter):
         ----------
         z : array_like
             An image (H, W) or a stack (F, H, W) of width W (frames in parallel, GIL
-            released); NaN pixels are missing observations.
+            released), with a channel axis if `channel_axis` is given; NaN pixels are
+            missing observations.
         noise_var : array_like, optional
-            Per-pixel σ_θ² map broadcastable to z's shape (> 0; inf = missing); None = the
-            filter's `noise_var` everywhere.
+            Per-pixel σ_θ² map broadcastable to z's shape (to one channel's with
+            `channel_axis`; > 0; inf = missing); None = the filter's `noise_var` everywhere.
         out : numpy.ndarray, optional
             Destination: a writeable, C-contiguous float64 array of z's shape sharing no
-            memory with z (a buffer reused over a stream of frames).
+            memory with z (a buffer reused over a stream of frames); not with `channel_axis`.
+        channel_axis : int, optional
+            The axis of colour channels: each channel is filtered as an image of its own.
+        mask : array_like of bool, optional
+            True = a missing pixel (as in ``numpy.ma``), of z's shape.
 
         Returns
         -------
@@ -216,10 +223,19 @@ class ScalarRowFilter(RowFilter):
         ValueError
             Images of the wrong width or dimension, infinite pixels, pixels with
             ``abs(z - mean) > 2**1000``, a bad noise map, an estimate that overflows float64
-            (pixels far from the mean at a tiny noise ratio), a bad `out`.
+            (pixels far from the mean at a tiny noise ratio), a bad `out`, `out` with
+            `channel_axis`.
         MemoryError
             The row models a smoothed weighted pass keeps would not fit.
         """
+        return self._per_channel(
+            z, channel_axis, mask, out, lambda a, o: self._filter_one(a, noise_var, o)
+        )
+
+    def _filter_one(
+        self, z: npt.ArrayLike, noise_var: npt.ArrayLike | None, out: np.ndarray | None
+    ) -> np.ndarray:
+        """:meth:`filter` of grey images or a stack."""
         if noise_var is None:
             # the kernel checks every pixel in its own pass over the row: no pass here
             # unless it finds a NaN (then a missing pixel) or infinite one (refused below)

@@ -4,13 +4,15 @@ page *Tracking*, §3; [K93]); the Rust kernel ``_core.segment``."""
 from __future__ import annotations
 
 import numbers
-from typing import Any, Literal, overload
+from collections.abc import Callable
+from typing import Any, Literal, Union, overload
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
 from .. import _core
+from .._channels import check_channel_axis, warn_if_colour
 from .._validation import positive_int, real_number
 
 #: columns of the segment table, in order (``frame`` comes first when ``frame_no`` is given)
@@ -28,37 +30,42 @@ COLUMNS = (
     "label",
 )
 _INT_COLUMNS = frozenset({"area", "bbox_x0", "bbox_y0", "bbox_x1", "bbox_y1", "label"})
+#: a threshold: a number, "otsu" or a function of the image
+Threshold = Union[float, str, Callable[[np.ndarray], float]]
 _KERNEL_DTYPES = frozenset(np.dtype(t) for t in (np.uint8, np.uint16, np.float32, np.float64))
 
 
 @overload
 def segment(
     frame: npt.ArrayLike,
-    threshold: float,
+    threshold: Threshold,
     min_area: int = ...,
     connectivity: int = ...,
     *,
     labels: Literal[False] = ...,
     frame_no: int | None = ...,
+    channel_axis: int | None = ...,
 ) -> pd.DataFrame: ...
 @overload
 def segment(
     frame: npt.ArrayLike,
-    threshold: float,
+    threshold: Threshold,
     min_area: int = ...,
     connectivity: int = ...,
     *,
     labels: Literal[True],
     frame_no: int | None = ...,
+    channel_axis: int | None = ...,
 ) -> tuple[pd.DataFrame, np.ndarray]: ...
 def segment(
     frame: npt.ArrayLike,
-    threshold: float,
+    threshold: Threshold,
     min_area: int = 1,
     connectivity: int = 8,
     *,
     labels: bool = False,
     frame_no: int | None = None,
+    channel_axis: int | None = None,
 ) -> pd.DataFrame | tuple[pd.DataFrame, np.ndarray]:
     """Segments of a frame: the connected components of the pixels above a threshold.
 
@@ -68,8 +75,11 @@ def segment(
         A 2-D frame, or a 3-D stack of frames (segmented in parallel, GIL released; the
         table then has a ``frame`` column). uint8, uint16, float32 and float64 are used as
         they are, bool as uint8, other numeric types as float64.
-    threshold : float
+    threshold : float, "otsu" or callable
         A pixel of value v is foreground iff v > threshold; its weight is v − threshold.
+        "otsu": Otsu's threshold of the frame's (the stack's) 256-bin histogram, as
+        ``skimage.filters.threshold_otsu``; a callable gets the frame (or the whole stack)
+        and returns the threshold.
     min_area : int, default 1
         Segments of fewer pixels are dropped.
     connectivity : {8, 4}, default 8
@@ -80,6 +90,10 @@ def segment(
     frame_no : int, optional
         If given, a first column ``frame`` holding it (for a stack: it plus the index in
         the stack), the trackpy convention.
+    channel_axis : int, optional
+        The axis of colour channels: they are averaged into one intensity image before
+        segmenting (segment a channel alone by passing it alone). Without it, a 3-D array
+        ending in 3 or 4 values warns: it is read as a stack of narrow frames.
 
     Returns
     -------
@@ -121,8 +135,8 @@ def segment(
           x    y  area
     0  11.0  6.0     9
     """
-    image = _frame_array(frame)
-    t = real_number(threshold, "threshold")
+    image = _frame_array(frame, channel_axis)
+    t = _threshold(threshold, image)
     area = positive_int(min_area, "min_area")
     conn = _connectivity(connectivity)
     frame_no = _frame_no(frame_no, image.shape[0] if image.ndim == 3 else 1)
@@ -137,12 +151,19 @@ def segment(
     return (table, label_image) if labels else table
 
 
-def _frame_array(frame: npt.ArrayLike) -> np.ndarray:
-    """The frame as a C-contiguous, native-byte-order 2-D array of a kernel dtype."""
+def _frame_array(frame: npt.ArrayLike, channel_axis: int | None = None) -> np.ndarray:
+    """The frame as a C-contiguous, native-byte-order 2-D array of a kernel dtype (the mean
+    of its channels if `channel_axis`)."""
     arr = np.asarray(frame)
     kind = arr.dtype.kind
     if kind not in "biuf":
         raise TypeError(f"frame must hold real numbers, got dtype {arr.dtype}")
+    axis = check_channel_axis(channel_axis, arr.ndim)
+    if axis is None:
+        warn_if_colour(arr, "segment")
+    else:
+        arr = arr.mean(axis=axis)
+        kind = arr.dtype.kind
     if arr.ndim not in (2, 3):
         raise ValueError(
             f"frame must be 2-D (or a 3-D stack), got {arr.ndim} dimensions (shape {arr.shape})"
@@ -171,6 +192,60 @@ def _segment_stack(
     data = {"frame": frames + first, **{name: columns[name] for name in COLUMNS}}
     table = pd.DataFrame(data, copy=False)
     return (table, label_image) if labels else table
+
+
+def _threshold(threshold: object, image: np.ndarray) -> float:
+    """The threshold: a number, Otsu's ("otsu") or what a callable makes of the image."""
+    if isinstance(threshold, str):
+        if threshold != "otsu":
+            raise ValueError(f"threshold must be a number, 'otsu' or a callable, got {threshold!r}")
+        return otsu_threshold(image)
+    if callable(threshold):
+        return real_number(threshold(image), "the threshold the callable returned")
+    return real_number(threshold, "threshold")
+
+
+def otsu_threshold(image: npt.ArrayLike, bins: int = 256) -> float:
+    """Otsu's threshold: the bin centre that maximises the between-class variance of the
+    image's `bins`-bin histogram (``skimage.filters.threshold_otsu``'s definition).
+
+    Parameters
+    ----------
+    image : array_like
+        Finite pixel values, any shape.
+    bins : int, default 256
+        Histogram bins over [min, max].
+
+    Returns
+    -------
+    float
+        The threshold (the pixels above it are the foreground).
+
+    Raises
+    ------
+    ValueError
+        An empty or constant image (no threshold separates it), non-finite pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from kalmanfield.tracking.segment import otsu_threshold
+    >>> otsu_threshold(np.r_[np.zeros(50), np.ones(50)]) < 1.0
+    True
+    """
+    values = np.asarray(image, dtype=np.float64).ravel()
+    if values.size == 0 or not np.isfinite(values).all():
+        raise ValueError("Otsu's threshold needs a non-empty image of finite pixels")
+    if values.min() == values.max():
+        raise ValueError("Otsu's threshold of a constant image is undefined: give a number")
+    counts, edges = np.histogram(values, bins=bins)
+    centres = (edges[:-1] + edges[1:]) / 2
+    weight_low = np.cumsum(counts)
+    weight_high = np.cumsum(counts[::-1])[::-1]
+    mean_low = np.cumsum(counts * centres) / weight_low
+    mean_high = (np.cumsum((counts * centres)[::-1]) / weight_high[::-1])[::-1]
+    between = weight_low[:-1] * weight_high[1:] * (mean_low[:-1] - mean_high[1:]) ** 2
+    return float(centres[:-1][np.argmax(between)])
 
 
 def _connectivity(value: object) -> int:
