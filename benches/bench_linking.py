@@ -70,6 +70,23 @@ def run_trackpy(sc: BrownianScenario) -> tuple[pd.Series, float]:
     return out.particle, time.process_time() - t0
 
 
+def reading(summary: dict[tuple[str, str], list]) -> list[str]:
+    """The comparison the issue asks for, in words: `kf.link()` on its defaults against
+    trackpy's call, scene by scene (means over the seeds of this run)."""
+    tp_name = next((n for n, _ in summary if n.startswith("trackpy")), None)
+    if tp_name is None:
+        return []
+    out = ["Reading (means over the seeds of this run, `kf.link()` on its defaults / trackpy):", ""]
+    for scene in SCENES:
+        b, d, p, cpu = np.mean(summary[("kf.link() defaults", scene)], axis=0)
+        tb, td, tpp, tcpu = np.mean(summary[(tp_name, scene)], axis=0)
+        out.append(
+            f"- {scene}: Brownian pairs {b:.4f} / {tb:.4f}, directed pairs {d:.4f} / {td:.4f}, "
+            f"link precision {p:.4f} / {tpp:.4f}; CPU {cpu / tcpu:.1f}× trackpy's."
+        )
+    return out
+
+
 def main(argv=None) -> str:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
@@ -120,6 +137,7 @@ def main(argv=None) -> str:
         for (name, scene), vals in summary.items():
             b, d, p, cpu = np.mean(vals, axis=0)
             lines.append(f"| {name} | {scene} | mean | {b:.4f} | {d:.4f} | {p:.4f} | {cpu:.2f} |")
+    lines += ["", *reading(summary)]
     text = "\n".join(lines) + "\n"
     print()
     print(text)
