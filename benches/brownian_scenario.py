@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from tracking_scenario import _reflect  # the anchor scenario's borders
 
 
 @dataclass
@@ -32,16 +33,6 @@ class BrownianScenario:
     truth: pd.DataFrame
     detections: pd.DataFrame
     n_brownian: int
-
-
-def _reflect(pos: np.ndarray, vel: np.ndarray, size: float) -> None:
-    for _ in range(4):
-        lo = pos < 0.0
-        pos[lo] = -pos[lo]
-        vel[lo] = -vel[lo]
-        hi = pos > size
-        pos[hi] = 2.0 * size - pos[hi]
-        vel[hi] = -vel[hi]
 
 
 def make_brownian(
