@@ -3,11 +3,14 @@ scenario.
 
 Trackers, each on the same seeded scenarios of ``tracking_scenario.py``:
 
-1. ``kalmanfield.BranchingTracker`` when the Rust class exists, otherwise the NumPy reference
-   ``kalmanfield.reference.tracking.branching.BranchingTracker`` (same ``TRACKER_CONFIG``);
-   scored on the estimated positions of ``tracks()``, coasted frames included;
-2. trackpy ``link`` (+ ``filter_stubs``) on the detections, if trackpy is installed;
-3. Stone Soup GNN (``GNNWith2DAssignment``) and JPDA (``JPDAwithEHM``, exact JPDA with efficient
+1. ``kalmanfield.link`` with its default arguments (every noise level estimated from the
+   table), scored on the detections it links;
+2. ``kalmanfield.BranchingTracker`` with the ``TrackerConfig`` defaults, and with
+   ``TRACKER_CONFIG`` (tuned to the scenario for 0.1.0), when the Rust class exists, otherwise
+   the NumPy reference ``kalmanfield.reference.tracking.branching.BranchingTracker``; scored on
+   the estimated positions of ``tracks()``, coasted frames included;
+3. trackpy ``link`` (+ ``filter_stubs``) on the detections, if trackpy is installed;
+4. Stone Soup GNN (``GNNWith2DAssignment``) and JPDA (``JPDAwithEHM``, exact JPDA with efficient
    hypothesis management, in a mixture tracker; plain ``JPDA`` took > 5 CPU min), both
    with a nearly-constant-velocity Kalman filter and a 5-point ``MultiMeasurementInitiator``,
    if Stone Soup is installed; scored on all states of all tracks (predictions on misses
@@ -18,14 +21,19 @@ matches a target within 3 px (Euclidean); IDF1, MOTA, MOTP (mean matched distanc
 switches, false positives, misses. Time: CPU seconds of the tracker alone
 (``time.process_time``, scoring excluded; the machine is shared, so compare within a run).
 
-``--stress`` also runs the kalmanfield/reference tracker on the scenario with 2,000 clutter
-points per frame (and ``--scale`` on 512 × 512, 50 targets, 200 clutter points) and reports
-hypotheses per frame and time per frame.
+The variants (issue 51: the anchor scenario with other seeds and 50 or 80 clutter points per
+frame, targets bouncing off the borders, P_d 0.9) compare ``kalmanfield.link`` with its
+defaults against trackpy and Stone Soup GNN on the same detections.
 
-Run: ``python benches/bench_tracking.py [--seeds 1 2] [--quick] [--jpda] [--stress] [--scale]``
-(``--quick``: one seed; ``--jpda``: also Stone Soup JPDA, ~45 s CPU per seed here). The
-Markdown report is printed and written to the benchmark page ``docs/benchmarks/tracking.md``
-(``--quick`` or ``--no-anchors``: to ``bench_out/tracking.md``).
+``--stress`` also runs the tracker (defaults) on the scenario with 2,000 clutter points per
+frame (and ``--scale`` on 512 × 512, 50 targets, 200 clutter points) and reports hypotheses
+per frame and time per frame.
+
+Run: ``python benches/bench_tracking.py [--seeds 1 2 3] [--variants 3 4 5 6] [--quick] [--jpda]
+[--stress] [--scale]`` (``--quick``: one seed, one variant; ``--jpda``: also Stone Soup JPDA,
+~45 s CPU per seed here). The Markdown report is printed and written to the benchmark page
+``docs/benchmarks/tracking.md`` (``--quick`` or ``--no-anchors``: to
+``bench_out/tracking.md``).
 """
 
 from __future__ import annotations
@@ -48,7 +56,8 @@ import kalmanfield as kf  # noqa: E402
 
 MATCH_PX = 3.0
 
-#: configuration of the branching tracker for the anchor scenario (keywords of the reference)
+#: configuration of the branching tracker tuned to the anchor scenario for 0.1.0 (keywords of
+#: the reference; the benchmark's headline rows use the defaults)
 TRACKER_CONFIG = dict(
     order=1,
     process_std=0.1,  # the scenario's random acceleration, px/frame²
@@ -99,10 +108,10 @@ def tracker_class():
 
 
 def run_branching(sc: Scenario, config: dict | None = None):
-    """Run the branching tracker; returns (tracks, cpu seconds, most live sequences)."""
+    """Run the branching tracker with `config` (None: the TrackerConfig defaults, the clutter
+    density estimated); returns (tracks, cpu seconds, most live sequences)."""
     cls, _ = tracker_class()
-    cfg = dict(TRACKER_CONFIG if config is None else config)
-    cfg.setdefault("clutter_density", sc.clutter_density)
+    cfg = {} if config is None else dict(config, clutter_density=sc.clutter_density)
     tr = cls(2, **cfg)
     frames = sc.frames()
     t0 = time.process_time()
@@ -113,6 +122,15 @@ def run_branching(sc: Scenario, config: dict | None = None):
     stats = tr.stats
     live = stats()["live"].max() if callable(stats) else max(s["live"] for s in stats)
     return out[["frame", "particle", "x", "y"]], cpu, int(live)
+
+
+def run_link(sc: Scenario):
+    """``kalmanfield.link`` with its defaults; returns (linked rows, cpu seconds)."""
+    det = sc.detections[["frame", "x", "y"]]
+    t0 = time.process_time()
+    out = kf.link(det)
+    cpu = time.process_time() - t0
+    return out[["frame", "particle", "x", "y"]].reset_index(drop=True), cpu
 
 
 def run_trackpy(sc: Scenario):
@@ -249,14 +267,42 @@ def fmt_row(name: str, seed, m: dict, cpu: float, extra: str = "") -> str:
 
 
 HEADER = (
-    "| tracker | seed | IDF1 | MOTA | MOTP (px) | ID sw. | FP | FN | CPU (s) |\n"
+    "| tracker | scene | IDF1 | MOTA | MOTP (px) | ID sw. | FP | FN | CPU (s) |\n"
     "|---|---|---|---|---|---|---|---|---|"
 )
 
 
+def run_rows(
+    runners: dict[str, Callable], scenes: list[tuple[str, Scenario]], lines: list[str]
+) -> dict[str, list]:
+    """One table row per (scene, tracker); returns the figures per tracker."""
+    summary: dict[str, list] = {}
+    for label, sc in scenes:
+        for name, fn in runners.items():
+            try:
+                out, cpu = fn(sc)
+            except Exception as exc:  # an anchor failing must not kill the report
+                print(f"{name} failed on {label}: {exc!r}")
+                continue
+            m = score(sc.truth, out, sc.config.n_frames)
+            row = fmt_row(name, label, m, cpu)
+            print(row, flush=True)
+            lines.append(row)
+            summary.setdefault(name, []).append((m, cpu))
+    return summary
+
+
+def mean_rows(summary: dict[str, list], lines: list[str], header: str) -> None:
+    lines += ["", "Mean:", "", header]
+    for name, vals in summary.items():
+        m = {k: float(np.mean([v[0][k] for v in vals])) for k in vals[0][0]}
+        lines.append(fmt_row(name, "mean", m, float(np.mean([v[1] for v in vals]))))
+
+
 def main(argv=None) -> str:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--variants", type=int, nargs="+", default=[3, 4, 5, 6])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--stress", action="store_true")
     ap.add_argument("--scale", action="store_true")
@@ -264,7 +310,9 @@ def main(argv=None) -> str:
     ap.add_argument("--jpda", action="store_true", help="also Stone Soup JPDA (slow)")
     args = ap.parse_args(argv)
     seeds = args.seeds[:1] if args.quick else args.seeds
+    variants = args.variants[:1] if args.quick else args.variants
     _, label = tracker_class()
+    impl = "" if label.startswith("kalmanfield") else " (NumPy twin)"
 
     lines = ["## Point-target scenario", ""]
     cfg0 = make_scenario(seeds[0]).config
@@ -276,36 +324,48 @@ def main(argv=None) -> str:
         f"clutter points/frame. Scored with py-motmetrics, {MATCH_PX:.0f}-px match threshold, "
         "against the true positions in every frame.",
         "",
-        "CPU seconds of the tracker alone.",
-        f"Branching tracker: {label}, config `{TRACKER_CONFIG}`.",
+        "`kf.link(detections)` runs with its default arguments (every noise level estimated "
+        "from the table) and is scored on the detections it links, as trackpy is: a missed "
+        "detection is a miss, so IDF1 cannot exceed about 2 P_d / (1 + P_d) = 0.947. The "
+        f"tracker rows ({label}) are scored on the estimated positions of `tracks()`, coasted "
+        "frames included: with the `TrackerConfig` defaults, and with the configuration tuned "
+        f"to this scenario for 0.1.0 (`TRACKER_CONFIG` = `{TRACKER_CONFIG}`, the scenario's "
+        "clutter density given). CPU seconds of the tracker alone.",
         "",
         HEADER,
     ]
-    runners: dict[str, Callable] = {"branching (" + label.split()[0] + ")": None}
-    if not args.no_anchors:
-        runners.update(anchors(args.jpda and not args.quick))
-    summary: dict[str, list] = {}
-    for seed in seeds:
-        sc = make_scenario(seed)
-        for name, fn in runners.items():
-            try:
-                if fn is None:
-                    out, cpu, _ = run_branching(sc)
-                else:
-                    out, cpu = fn(sc)
-            except Exception as exc:  # an anchor failing must not kill the report
-                print(f"{name} failed on seed {seed}: {exc!r}")
-                continue
-            m = score(sc.truth, out, sc.config.n_frames)
-            row = fmt_row(name, seed, m, cpu)
-            print(row, flush=True)
-            lines.append(row)
-            summary.setdefault(name, []).append((m, cpu))
+    runners: dict[str, Callable] = {
+        "kf.link() defaults": run_link,
+        f"BranchingTracker{impl} defaults": lambda sc: run_branching(sc)[:2],
+        f"BranchingTracker{impl} tuned (0.1.0)": lambda sc: run_branching(sc, TRACKER_CONFIG)[:2],
+    }
+    anchor_runners = {} if args.no_anchors else anchors(args.jpda and not args.quick)
+    runners.update(anchor_runners)
+    summary = run_rows(runners, [(str(seed), make_scenario(seed)) for seed in seeds], lines)
     if len(seeds) > 1:
-        lines += ["", "Mean over seeds:", "", HEADER]
-        for name, vals in summary.items():
-            m = {k: float(np.mean([v[0][k] for v in vals])) for k in vals[0][0]}
-            lines.append(fmt_row(name, "mean", m, float(np.mean([v[1] for v in vals]))))
+        mean_rows(summary, lines, HEADER)
+
+    lines += [
+        "",
+        "## Variants: other seeds, 50 and 80 clutter points per frame",
+        "",
+        "The anchor scenario with other seeds and 50 or 80 clutter points per frame (P_d 0.9, "
+        "targets bouncing off the borders), linked with the defaults of `kf.link` and by the "
+        "anchors; every tracker scored on its output as above.",
+        "",
+        HEADER,
+    ]
+    variant_runners = {"kf.link() defaults": run_link}
+    variant_runners.update({k: v for k, v in anchor_runners.items() if "JPDA" not in k})
+    scenes = [
+        (f"{seed}, {n} clutter", make_scenario(seed, n_clutter=n))
+        for seed in variants
+        for n in (50, 80)
+    ]
+    summary = run_rows(variant_runners, scenes, lines)
+    mean_rows(summary, lines, HEADER)
+    idf1 = [v[0]["idf1"] for v in summary["kf.link() defaults"]]
+    lines += ["", f"`kf.link()` defaults: IDF1 {min(idf1):.3f}–{max(idf1):.3f} over the variants."]
 
     stress = []
     if args.stress:
@@ -317,7 +377,7 @@ def main(argv=None) -> str:
     if stress:
         lines += [
             "",
-            "## Clutter / scale stress (branching tracker only)",
+            "## Clutter / scale stress (branching tracker, defaults)",
             "",
             "| case | seed | IDF1 | MOTA | MOTP (px) | ID sw. | FP | FN | CPU (s) | "
             "max live hyps | mean s/frame |",

@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 import kalmanfield as kf
 from kalmanfield import _core
 from kalmanfield.reference.tracking import branching as reference
+from kalmanfield.tracking.branching_tracker import LEGACY_SETTINGS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benches"))
 from bench_tracking import TRACKER_CONFIG  # noqa: E402
@@ -111,6 +112,11 @@ TWIN_CONFIGS = {
     "hypothesis_cap": dict(max_hypotheses=30, max_per_tree=2),
     "max_shared0_merge_depth2": dict(max_shared=0, merge_depth=2, n_confirm=3),
     "no_child_cap": dict(max_children=None),
+    "no_commitment_no_maneuver": dict(commit_lag=None, maneuver_std=None),
+    "commit_lag3": dict(commit_lag=3, max_misses=3),
+    "drift_plus_diffusion": dict(diffusion_std=0.4, process_std=0.05),
+    "diffusion_order0": dict(order=0, process_std=0.0, diffusion_std=1.0),
+    "maneuver_per_parameter": dict(maneuver_std=[2.0, 0.0]),
     "max_children1": dict(max_children=1, maneuver_std=1.5, maneuver_prob=0.001),
 }
 
@@ -191,9 +197,10 @@ def expected_score(d_start, nu_max, pd_, lam, log_var, incs, penalty=0.0):
     return np.r_[0.0, np.cumsum(steps)]
 
 
-def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
+def numpy_kalman(z, times, order, process_std, r, max_speed, js=None, diffusion=0.0):
     """Plain per-parameter polynomial Kalman filter (§3.1), written independently:
-    F = Taylor matrix of τ, Q = σ² g gᵀ with g_i = τ^(ν+1−i)/(ν+1−i)!, H = (1, 0, …).
+    F = Taylor matrix of τ, Q = σ² g gᵀ with g_i = τ^(ν+1−i)/(ν+1−i)! plus the diffusion
+    σ_D² τ on the value, H = (1, 0, …).
     ``js[i]`` > 0: the tracker's maneuver branch at frame i, a velocity jump of that
     std at the previous frame, P_pred += σ_m² g_m g_mᵀ with g_m = (τ, 1, 0, …) ((1,) for
     order 0). Returns the filtered states, the normalised innovations (NaN at the start)
@@ -215,6 +222,7 @@ def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
         g = np.array([tau ** (d - a) / math.factorial(d - a) for a in range(d)])
         x_pred = F @ x
         P_pred = F @ P @ F.T + process_std**2 * np.outer(g, g)
+        P_pred[0, 0] += diffusion**2 * tau
         if js is not None and js[i] > 0:
             g_m = np.zeros(d)
             g_m[:2] = [tau, 1.0] if d > 1 else [1.0]
@@ -230,9 +238,12 @@ def numpy_kalman(z, times, order, process_std, r, max_speed, js=None):
     return np.array(states), np.array(incs), np.array(var)
 
 
-@pytest.mark.parametrize("orders", [[1, 1], [1, 2, 0]])
-def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
-    """One clean target (no clutter, no miss), irregular frame times, known noise.
+@pytest.mark.parametrize(
+    "orders,diffusion", [([1, 1], None), ([1, 2, 0], None), ([1, 1, 0], [0.4, 0.2, 0.3])]
+)
+def test_kalman_states_index_and_score_match_a_numpy_loop(orders, diffusion):
+    """One clean target (no clutter, no miss), irregular frame times, known noise (with
+    ``diffusion``: drift plus a random walk of the value, variance σ_D² τ per step).
 
     The tracker's start, replicated here: x0 = (z0, 0, …, 0), P0 = diag(R, (10·max_speed)²,
     …) per parameter (the reference's ``_p0``), then an ordinary Kalman update at every
@@ -255,11 +266,14 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     v = np.array([1.0, -0.5, 0.0])[:k]
     truth = []
     walk = np.array(orders) == 0  # an order-0 parameter is a random walk
+    sigma_d = np.zeros(k) if diffusion is None else np.array(diffusion)
     for i in range(T):
         noise = rng.normal(0.0, process_std)
         if i:
             tau = times[i] - times[i - 1]
             x = x + v * tau + np.where(walk, noise * tau, 0.5 * noise * tau**2)
+            if diffusion is not None:
+                x = x + rng.normal(0.0, sigma_d * math.sqrt(tau))
             v = v + np.where(walk, 0.0, noise * tau)
         truth.append(x.copy())
     z = np.array(truth) + rng.normal(0.0, meas_std, (T, k))
@@ -275,6 +289,8 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
         p_detect=pd_,
         clutter_density=lam,
         max_speed=vmax,
+        diffusion_std=sigma_d,
+        maneuver_std=None,
     )
     tracks = tracker.tracks()
     assert tracks.particle.nunique() == 1
@@ -282,7 +298,9 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     incs = np.zeros(T)
     log_var = np.zeros(T)
     for q, name in enumerate(tracker.names):
-        states, inc, var = numpy_kalman(z[:, q], times, orders[q], process_std[q], R[q], vmax)
+        states, inc, var = numpy_kalman(
+            z[:, q], times, orders[q], process_std[q], R[q], vmax, diffusion=sigma_d[q]
+        )
         incs += np.nan_to_num(inc)
         log_var += np.nan_to_num(np.log(2 * np.pi * var))
         np.testing.assert_allclose(tracks[name].to_numpy(), states[:, 0], rtol=0, atol=1e-9)
@@ -293,7 +311,7 @@ def test_kalman_states_index_and_score_match_a_numpy_loop(orders):
     nu_max = max(orders)
     incs[: nu_max + 1] = 0.0
     index = np.array([incs[max(0, i - N + 1) : i + 1].sum() for i in range(T)])
-    np.testing.assert_allclose(tracks["index"].to_numpy(), index, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tracks["likelihood_index"].to_numpy(), index, rtol=0, atol=1e-9)
     s = 2  # n_spatial, default min(k, 2): x, y
     r_ls = vmax * np.diff(times) + 3.0 * math.sqrt(2.0) * meas_std[:s].max()
     extent = np.ones(T)  # Π over the non-spatial parameters of their extent seen so far
@@ -393,7 +411,8 @@ def test_maneuver_branch_follows_a_bounce(maneuver):
     T, bounce, N, pd_, lam, vmax, beta = 20, 10, 4, 0.9, 1e-4, 6.0, 0.99
     sigma_m, p_m, meas_std, process_std = 1.5, 1e-3, 0.3, 0.1
     times, z = bounce_scenario(T=T, bounce=bounce, meas_std=meas_std)
-    extra = dict(maneuver_std=sigma_m, maneuver_prob=p_m) if maneuver else {}
+    # (the branch is on by default since issue 51: "without" has to switch it off)
+    extra = dict(maneuver_std=sigma_m, maneuver_prob=p_m) if maneuver else dict(maneuver_std=None)
     tracker = run(
         kf.BranchingTracker,
         z[:, None, :],
@@ -422,7 +441,7 @@ def test_maneuver_branch_follows_a_bounce(maneuver):
         np.testing.assert_allclose(tracks[name].to_numpy(), states[:, 0], rtol=0, atol=1e-9)
         np.testing.assert_allclose(tracks[f"{name}_d1"].to_numpy(), states[:, 1], atol=1e-9)
     index = np.array([incs[max(0, i - N + 1) : i + 1].sum() for i in range(T)])
-    np.testing.assert_allclose(tracks["index"].to_numpy(), index, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tracks["likelihood_index"].to_numpy(), index, rtol=0, atol=1e-9)
     r_ls = vmax * 1.0 + 3.0 * math.sqrt(2.0) * meas_std
     d_start = math.log(pd_) - math.log(lam * np.pi * r_ls**2)
     penalty = np.where(jump_std[1:] > 0, math.log(p_m), 0.0)
@@ -472,7 +491,9 @@ def test_index_follows_its_chi2_law(k, memory):
     span = tracks.groupby("particle").frame.agg(["min", "max"])
     whole = span.index[(span["min"] == 0) & (span["max"] == T - 1)]
     assert len(whole) >= 0.99 * n
-    index = tracks[(tracks.frame == T - 1) & tracks.particle.isin(whole)]["index"].to_numpy()
+    index = tracks[(tracks.frame == T - 1) & tracks.particle.isin(whole)][
+        "likelihood_index"
+    ].to_numpy()
     dof = k * memory
     m = len(index)
     assert abs(index.mean() - dof) <= 4 * math.sqrt(2 * dof / m)
@@ -709,7 +730,8 @@ def test_version_1_state_resumes_like_an_unbroken_run():
     assert state["state"][:8] == b"KFBRT001"
     resumed = kf.BranchingTracker.__new__(kf.BranchingTracker)
     resumed.__setstate__(state)
-    unbroken = kf.BranchingTracker(2, **state["config"])
+    # (settings added since take the values that resume the old run: no commitment)
+    unbroken = kf.BranchingTracker(2, **{**LEGACY_SETTINGS, **state["config"]})
     for z in frames[: resumed.frame]:
         unbroken.update(z)
     for z in frames[resumed.frame :]:
@@ -951,7 +973,7 @@ def test_empty_frames_coast_and_empty_tracker_has_the_columns():
     assert len(t) == 0
     assert list(t.columns) == [
         "frame", "particle", "x", "y", "p2", "x_d1", "y_d1", "detection", "coasted",
-        "index", "score",
+        "likelihood_index", "score",
     ]  # fmt: skip
     ref_cols = reference.BranchingTracker(3, order=[1, 1, 0]).tracks().columns
     assert list(t.columns) == list(ref_cols)
@@ -985,7 +1007,15 @@ def detections():
     return det.reset_index(drop=True)
 
 
-LINK_KW = dict(measurement_std=0.5, process_std=0.1, clutter_density=8 / 128**2)
+#: every setting link would estimate given (no pilot run), every row kept
+LINK_KW = dict(
+    measurement_std=0.5,
+    process_std=0.1,
+    diffusion_std=0.0,
+    max_speed=6.0,
+    clutter_density=8 / 128**2,
+    keep_unlinked=True,
+)
 
 
 @pytest.mark.parametrize("features", [(), ("amplitude",)])
@@ -1006,10 +1036,15 @@ def test_link_adds_a_particle_column_like_the_reference(detections, features):
     assert (out[out.truth == -1].particle == -1).mean() > 0.9  # clutter mostly unlinked
 
 
-def test_link_equals_the_tracker_it_wraps(detections):
-    out = kf.link(detections, **LINK_KW)
+@pytest.mark.parametrize("given", [True, False])
+def test_link_equals_the_tracker_it_wraps(detections, given):
+    """The tracker run frame by frame with the configuration link reports (given, or
+    estimated by its pilot run) gives link's particles."""
+    out = kf.link(detections, **(LINK_KW if given else dict(keep_unlinked=True)))
+    if given:
+        assert out.attrs["tracker_config"].max_speed == 6.0
     order = np.argsort(detections.frame.to_numpy(), kind="stable")
-    tracker = kf.BranchingTracker(2, **LINK_KW)
+    tracker = kf.BranchingTracker(2, out.attrs["tracker_config"])
     for f in range(20):
         rows = order[detections.frame.to_numpy()[order] == f]
         tracker.update(detections.loc[rows, ["x", "y"]].to_numpy(), time=float(f))

@@ -7,6 +7,7 @@ The method, every rule and every choice where the source is silent: method page 
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -24,7 +25,35 @@ __all__ = ["BranchingTracker"]
 #: beyond ~1e154 those squares leave float64 (1e200 gave NaN tracks)
 MAX_MEASUREMENT = 1e150
 
+#: settings younger than the first pickles, with the value that resumes such a pickle exactly
+LEGACY_SETTINGS = {"max_children": None, "diffusion_std": 0.0, "commit_lag": None}
+
 _STATS_COLUMNS = ["measurements", "live_before", "children", "live", "seeds", "bookkeeping"]
+
+
+class TrackTable(pd.DataFrame):
+    """The table of :meth:`BranchingTracker.tracks`: a DataFrame whose ``["index"]`` still
+    gives the ``likelihood_index`` column, with a DeprecationWarning (the column was called
+    ``index`` in 0.1.0, a name that clashes with ``DataFrame.index``)."""
+
+    @property
+    def _constructor(self) -> type[TrackTable]:
+        return TrackTable
+
+    def __getitem__(self, key: Any) -> Any:
+        if (
+            isinstance(key, str)
+            and key == "index"
+            and "index" not in self.columns
+            and "likelihood_index" in self.columns
+        ):
+            warnings.warn(
+                "the tracks' column 'index' is now 'likelihood_index'",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            key = "likelihood_index"
+        return super().__getitem__(key)
 
 
 def _default_names(k: int, n_spatial: int) -> list[str]:
@@ -214,8 +243,9 @@ class BranchingTracker:
             Columns ``frame``, ``particle``, the parameters (filtered estimates, named
             :attr:`names`), their derivatives ``<name>_d1``…, ``detection`` (the running
             number of the measurement over all frames, −1 when coasted), ``coasted``,
-            ``index`` (the sliding likelihood index I, §3.2) and ``score``. The online answer
-            has ``frame``, ``particle``, the parameters, ``coasted`` and ``score``.
+            ``likelihood_index`` (the sliding likelihood index I, §3.2; ``["index"]`` still
+            reads it, deprecated) and ``score``. The online answer has ``frame``,
+            ``particle``, the parameters, ``coasted`` and ``score``.
 
         Notes
         -----
@@ -241,9 +271,9 @@ class BranchingTracker:
                 data[f"{name}_d{j}"] = state[:, offsets[q] + j]
         data["detection"] = t["detection"]
         data["coasted"] = t["detection"] < 0
-        data["index"] = t["index"]
+        data["likelihood_index"] = t["index"]
         data["score"] = t["score"]
-        return pd.DataFrame(data)
+        return TrackTable(data)
 
     def stats(self) -> pd.DataFrame:
         """The work of every frame so far.
@@ -303,7 +333,7 @@ class BranchingTracker:
         settings = state["config"]
         if not isinstance(settings, dict):
             raise TypeError(f"the pickled config must be a dict, got {type(settings).__name__}")
-        settings = {"max_children": None, **settings}  # pickled before the cap existed
+        settings = {**LEGACY_SETTINGS, **settings}
         names = state["names"]
         if not isinstance(names, (list, tuple)):
             raise TypeError(f"the pickled names must be a list, got {type(names).__name__}")

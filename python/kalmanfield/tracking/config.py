@@ -49,6 +49,9 @@ class TrackerConfig:
         velocity.
     process_std : float or sequence of float, default 0.1
         Std of the white (ν+1)-th derivative per parameter (px/frame² for ν = 1).
+    diffusion_std : float or sequence of float, default 0.0
+        Std of a random walk of the value itself per unit time, added to the motion model
+        (diffusion, px/frame^½; 0 = none): with ν = 1, drift plus diffusion.
     measurement_std : float or sequence of float, default 0.5
         Measurement noise std per parameter. The stds, ``dt``, ``max_speed`` and
         ``maneuver_std`` must be at most 1e100 (the filters square them).
@@ -84,9 +87,15 @@ class TrackerConfig:
         every one, the literal [K93] rule.
     merge_depth : int, default 3
         D, the last measurements that identify a sequence's future (pruning; 1…256).
-    maneuver_std : float, sequence of float or None, default None
-        Optional velocity-jump branch per parameter (not in [K93]): a second child per gated
-        measurement with an extra velocity jump of that std.
+    commit_lag : int or None, default 1
+        N-scan commitment (not in [K93]): the measurement a sequence of the online answer
+        took this many frames ago belongs to its tree; other trees' sequences holding it
+        die (1…256; None = never, as the first version did).
+    maneuver_std : float, sequence of float, "auto" or None, default "auto"
+        Velocity-jump branch per parameter (not in [K93]): a second child per gated
+        measurement with an extra velocity jump of that std (0 = none for that parameter;
+        None = no branch). "auto": ``max_speed / 4`` on the positions (a bounce reverses a
+        velocity of up to ``max_speed``), 0 on the other parameters.
     maneuver_prob : float, default 0.01
         Prior probability of that jump.
     min_hits, final_llr : int or None, float
@@ -118,6 +127,7 @@ class TrackerConfig:
 
     order: int | Sequence[int] = 1
     process_std: PerParam = 0.1
+    diffusion_std: PerParam = 0.0
     measurement_std: PerParam = 0.5
     confidence: float = 0.99
     memory: int = 4
@@ -136,7 +146,8 @@ class TrackerConfig:
     max_seeds: int = 2_000
     max_children: int | None = 16
     merge_depth: int = 3
-    maneuver_std: PerParam | None = None
+    commit_lag: int | None = 1
+    maneuver_std: PerParam | str | None = "auto"
     maneuver_prob: float = 0.01
     min_hits: int | None = None
     final_llr: float = 5.0
@@ -247,6 +258,7 @@ class TrackerConfig:
         return TrackerConfig(
             order=orders,
             process_std=tuple(_per_param(self.process_std, k, "process_std")),
+            diffusion_std=tuple(_per_param(self.diffusion_std, k, "diffusion_std")),
             measurement_std=tuple(_per_param(self.measurement_std, k, "measurement_std")),
             n_spatial=s,
             confidence=probability(self.confidence, "confidence"),
@@ -269,11 +281,8 @@ class TrackerConfig:
             max_seeds=positive_int(self.max_seeds, "max_seeds"),
             max_children=optional(self.max_children, positive_int, "max_children"),
             merge_depth=positive_int(self.merge_depth, "merge_depth"),
-            maneuver_std=(
-                None
-                if self.maneuver_std is None
-                else tuple(_per_param(self.maneuver_std, k, "maneuver_std"))
-            ),
+            commit_lag=optional(self.commit_lag, positive_int, "commit_lag"),
+            maneuver_std=self._maneuver_std(k, s),
             maneuver_prob=probability(self.maneuver_prob, "maneuver_prob"),
             min_hits=(
                 n_confirm if self.min_hits is None else positive_int(self.min_hits, "min_hits")
@@ -283,6 +292,19 @@ class TrackerConfig:
             selection=self.selection,
             seed=resolve_seed(self.seed),
         )
+
+    def _maneuver_std(self, k: int, n_spatial: int) -> tuple[float, ...] | None:
+        """The manoeuvre stds for k parameters, "auto" resolved."""
+        if self.maneuver_std is None:
+            return None
+        if isinstance(self.maneuver_std, str):
+            if self.maneuver_std != "auto":
+                raise ValueError(
+                    f"maneuver_std must be numbers, 'auto' or None, got {self.maneuver_std!r}"
+                )
+            jump = positive_float(self.max_speed, "max_speed") / 4.0
+            return (jump,) * n_spatial + (0.0,) * (k - n_spatial)
+        return tuple(_per_param(self.maneuver_std, k, "maneuver_std"))
 
     def __getitem__(self, name: str) -> Any:
         """Deprecated dict-style access (``tracker.config["dt"]`` of 0.1.0)."""

@@ -150,6 +150,7 @@ fn tracker_config(c: &Bound<'_, PyAny>) -> PyResult<TrackerConfig> {
     Ok(TrackerConfig {
         order: field(c, "order")?,
         process_std: field(c, "process_std")?,
+        diffusion_std: field(c, "diffusion_std")?,
         measurement_std: field(c, "measurement_std")?,
         n_spatial: field(c, "n_spatial")?,
         confidence: field(c, "confidence")?,
@@ -168,6 +169,7 @@ fn tracker_config(c: &Bound<'_, PyAny>) -> PyResult<TrackerConfig> {
         max_seeds: field(c, "max_seeds")?,
         max_children: field(c, "max_children")?,
         merge_depth: field(c, "merge_depth")?,
+        commit_lag: field(c, "commit_lag")?,
         maneuver_std: field(c, "maneuver_std")?,
         maneuver_prob: field(c, "maneuver_prob")?,
         min_hits: field(c, "min_hits")?,
@@ -185,6 +187,7 @@ fn tracker_defaults(py: Python<'_>, k: usize) -> PyResult<Bound<'_, PyDict>> {
     let out = PyDict::new(py);
     out.set_item("order", c.order)?;
     out.set_item("process_std", c.process_std)?;
+    out.set_item("diffusion_std", c.diffusion_std)?;
     out.set_item("measurement_std", c.measurement_std)?;
     out.set_item("n_spatial", c.n_spatial)?;
     out.set_item("confidence", c.confidence)?;
@@ -203,6 +206,7 @@ fn tracker_defaults(py: Python<'_>, k: usize) -> PyResult<Bound<'_, PyDict>> {
     out.set_item("max_seeds", c.max_seeds)?;
     out.set_item("max_children", c.max_children)?;
     out.set_item("merge_depth", c.merge_depth)?;
+    out.set_item("commit_lag", c.commit_lag)?;
     out.set_item("maneuver_std", c.maneuver_std)?;
     out.set_item("maneuver_prob", c.maneuver_prob)?;
     out.set_item("min_hits", c.min_hits)?;

@@ -12,7 +12,8 @@ parameter q has its own polynomial Kalman filter of order ν_q: state (x_q, ẋ_
 F_q = Taylor matrix of the step τ, H = (1, 0, …), measurement variance R_q = measurement_std_q².
 Process noise: a white (ν_q+1)-th derivative held constant over the step, of std process_std_q,
 so Q_q = σ_q² g gᵀ with g_i = τ^(ν_q+1-i)/(ν_q+1-i)! (ν = 1: the discrete white-noise
-acceleration model, g = (τ²/2, τ)).
+acceleration model, g = (τ²/2, τ)), plus diffusion_std_q² τ on the value (a random walk of
+the value itself: with ν = 1, drift plus diffusion).
 
 Index (§3.2)
 -----------------
@@ -45,8 +46,15 @@ The children are pruned, in this order:
    best child of another tree). Without the protection, when two targets come close, both
    trees keep only variants that follow the same target and the other target is lost;
 4. cross-tree duplicates: when sequences of two trees share their last ``merge_depth``
-   measurements and the younger one has at most ν_max+1 measurements the older one does not
-   have (the same target started later, or started on one stray point), the younger one dies;
+   measurements and the younger one (started strictly later) has at most ν_max+1
+   measurements the older one does not have (the same target started later, or started on
+   one stray point), the younger one dies;
+   then the N-scan commitment (``commit_lag``, not in [K93]): the greedy answer over the
+   children (below) commits to the tree of each of its sequences the final answer could
+   take the measurement it took ``commit_lag`` frames ago, and every sequence of another
+   tree holding that measurement dies (a confirmed one offers its last measured node before
+   that frame as its tree's candidate). Without it each tree keeps, for every future, the
+   best past on its own, and the trees of two close targets all adopt the same past;
 5. global cap ``max_hypotheses``: children of confirmed sequences first, then by score.
 
 Every rule bounds the work per frame: at most ``max_hypotheses`` continuing sequences (plus at
@@ -178,16 +186,20 @@ def chi2_quantile(beta: float, dof: int) -> float:
     return 0.5 * (lo + hi)
 
 
-def motion_matrices(order: int, tau: float, process_std: float) -> tuple[np.ndarray, np.ndarray]:
-    """(F, Q) of one parameter (§3.1): F[i, j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ,
-    g_i = τ^(ν+1−i)/(ν+1−i)!."""
+def motion_matrices(
+    order: int, tau: float, process_std: float, diffusion_std: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """(F, Q) of one parameter (§3.1): F[i, j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ + σ_D² τ e₀e₀ᵀ,
+    g_i = τ^(ν+1−i)/(ν+1−i)! (σ_D: the diffusion of the value itself)."""
     d = order + 1
     F = np.zeros((d, d))
     for i in range(d):
         for j in range(i, d):
             F[i, j] = tau ** (j - i) / math.factorial(j - i)
     g = np.array([tau ** (d - i) / math.factorial(d - i) for i in range(d)])
-    return F, process_std**2 * np.outer(g, g)
+    Q = process_std**2 * np.outer(g, g)
+    Q[0, 0] += diffusion_std * diffusion_std * tau
+    return F, Q
 
 
 def splitmix64(x: np.ndarray) -> np.ndarray:
@@ -383,8 +395,11 @@ class BranchingTracker:
         self.s = c.n_spatial
         self.order = list(c.order)  # type: ignore[arg-type]
         self.sigma_w = list(c.process_std)  # type: ignore[arg-type]
+        self.sigma_d = list(c.diffusion_std)  # type: ignore[arg-type]
         self.R = np.array([v**2 for v in c.measurement_std])  # type: ignore[union-attr]
-        self.man = None if c.maneuver_std is None else list(c.maneuver_std)  # type: ignore[arg-type]
+        self.man: list[float] | None = (
+            None if c.maneuver_std is None else [float(v) for v in c.maneuver_std]  # type: ignore[union-attr]
+        )
         self.man_prob = c.maneuver_prob
         self.d = [o + 1 for o in self.order]
         self.off = np.concatenate([[0], np.cumsum(self.d)]).astype(int)
@@ -408,6 +423,7 @@ class BranchingTracker:
         self.max_seeds = c.max_seeds
         self.max_children = c.max_children
         self.D = c.merge_depth
+        self.commit_lag = c.commit_lag
         self.min_hits = c.min_hits
         self.final_llr = c.final_llr
         self.max_shared = c.max_shared
@@ -540,7 +556,7 @@ class BranchingTracker:
         ln_lam, ln_lam_s = self._log_density(gid0 + len(Z))
         Xp, Pp, S, Pm, Sm = [], [], np.empty((H, k)), [], np.empty((H, k))
         for q in range(k):
-            F, Q = motion_matrices(self.order[q], tau, self.sigma_w[q])
+            F, Q = motion_matrices(self.order[q], tau, self.sigma_w[q], self.sigma_d[q])
             x = h.X[q] @ F.T
             P = F @ h.P[q] @ F.T + Q
             Xp.append(x)
@@ -701,6 +717,8 @@ class BranchingTracker:
         c = c.take(np.sort(order[rank < self.K]))
         # 4. cross-tree duplicates
         c = self._cross_tree(c)
+        # N-scan commitment to the online answer
+        c = self._commit_to_online_answer(c)
         # 5. global cap
         if c.size > self.max_h:
             order = np.lexsort((-c.llr, ~c.conf))
@@ -715,9 +733,46 @@ class BranchingTracker:
             c = c.take(np.sort(order[: self.max_h]))
         return c
 
+    def _commit_to_online_answer(self, c: _Hyps) -> _Hyps:
+        """N-scan commitment: the greedy answer over the children commits to the tree of each
+        chosen sequence the final answer could take (score ≥ ``final_llr``, at least
+        ``min_hits`` measurements) the measurement it took ``commit_lag`` frames ago; a sequence of
+        another tree holding it dies (a confirmed one offers its last measured node before
+        that frame as its tree's candidate)."""
+        if self.commit_lag is None or c.size == 0:
+            return c
+        parent, meas = self.nodes.parent, self.nodes.meas
+        back = c.node.copy()  # the children's nodes are their parents, of frame t − 1
+        for _ in range(self.commit_lag - 1):
+            back = np.where(back >= 0, parent[np.maximum(back, 0)], -1)
+        held = np.where(back >= 0, meas[np.maximum(back, 0)], -1)
+        owner: dict[int, int] = {}
+        for i in self._greedy(c):
+            if held[i] >= 0 and c.llr[i] >= self.final_llr and c.hits[i] >= self.min_hits:
+                owner.setdefault(int(held[i]), int(c.tree[i]))
+        lost = np.array(
+            [
+                held[i] >= 0 and owner.get(int(held[i]), c.tree[i]) != c.tree[i]
+                for i in range(c.size)
+            ],
+            dtype=bool,
+        )
+        for i in np.flatnonzero(lost & c.conf):
+            before = int(parent[back[i]])
+            while before >= 0 and meas[before] < 0:
+                before = int(parent[before])
+            if before >= 0:
+                tr = c.tree[i]
+                if self.tree_cand[tr] < 0 or self.nodes.llr[before] > self.tree_cand_llr[tr]:
+                    self.tree_cand[tr] = before
+                    self.tree_cand_llr[tr] = self.nodes.llr[before]
+        return c.take(np.flatnonzero(~lost)) if lost.any() else c
+
     def _cross_tree(self, c: _Hyps) -> _Hyps:
         """Rule 4: kill the younger of two trees' sequences sharing their last D entries when it
-        has at most ν_max+1 measurements the older one lacks."""
+        has at most ν_max+1 measurements the older one lacks (strictly younger: of two starts
+        of one frame, one may be the target's and the other a stray point whose sequence
+        hopped onto it, and the score at the start does not tell them apart)."""
         informative = (c.recent >= 0).sum(1) >= 2
         idx = np.flatnonzero(informative)
         if len(idx) < 2:
@@ -737,7 +792,11 @@ class BranchingTracker:
             kept: list[int] = []
             for y in members:  # oldest first, best score first among equals
                 for o in kept:
-                    if c.tree[o] != c.tree[y] and self._dominated(c, y, o):
+                    if (
+                        c.tree[o] != c.tree[y]
+                        and c.start[o] < c.start[y]
+                        and self._dominated(c, y, o)
+                    ):
                         dead[y] = True
                         break
                 else:
@@ -986,7 +1045,7 @@ class BranchingTracker:
 
         Columns: frame, particle, the parameters (filtered estimates), their derivatives
         ``<name>_d1``…, ``detection`` (global detection id, −1 when coasted), ``coasted``,
-        ``index`` (sliding index I, §3.2) and ``score``. ``online=True`` gives the
+        ``likelihood_index`` (sliding index I, §3.2) and ``score``. ``online=True`` gives the
         per-frame online answer instead (particle = track tree id).
         """
         if online:
@@ -1013,7 +1072,7 @@ class BranchingTracker:
         kept = np.concatenate([k for _, k in chosen]) if chosen else np.zeros(0, bool)
         data["detection"] = np.where(kept, nodes.meas[allc], -1)
         data["coasted"] = data["detection"] < 0
-        data["index"] = nodes.index[allc]
+        data["likelihood_index"] = nodes.index[allc]
         data["score"] = nodes.llr[allc]
         return pd.DataFrame(data)
 
@@ -1029,34 +1088,42 @@ def link(
     *,
     measurement_std,
     process_std,
-    confidence: float = 0.99,
+    diffusion_std=0.0,
+    max_speed: float = 6.0,
+    confidence: float = 0.999,
     memory: int = 4,
-    max_misses: int = 2,
+    max_misses: int = 3,
     dt: float = 1.0,
     features: Sequence[str] = (),
     pos_columns: Sequence[str] = ("x", "y"),
+    t_column: str = "frame",
+    keep_unlinked: bool = False,
     **kwargs,
 ) -> pd.DataFrame:
-    """trackpy-style linking with the branching tracker (twin of ``kalmanfield.tracking.link``).
+    """trackpy-style linking with the branching tracker (twin of ``kalmanfield.tracking.link``
+    given its noise levels and largest speed: no pilot run, no estimate).
 
-    ``detections`` has columns frame, x, y (+ ``features``); returns a copy with a ``particle``
-    column: the track of each detection on a chosen confirmed sequence, −1 for the others
-    (clutter, unconfirmed). ``measurement_std``/``process_std`` are scalars or one value per
-    column (positions then features); extra keyword arguments go to ``BranchingTracker``.
+    ``detections`` has columns ``t_column``, the ``pos_columns`` (+ ``features``); returns its
+    rows on a track (all of them with ``keep_unlinked``, the others with particle −1) with a
+    ``particle`` column. ``measurement_std``/``process_std``/``diffusion_std`` are scalars or
+    one value per column (positions then features); extra keyword arguments go to
+    ``BranchingTracker``.
     """
     cols = [*pos_columns, *features]
     df = detections.reset_index(drop=True)
+    frame_no = df[t_column].to_numpy().astype(np.int64)
     if kwargs.get("clutter_density") is None and len(df):
         # detections per frame over the bounding box of the columns (sides ≥ 1), whole table
         values = df[cols].to_numpy(dtype=float)
-        frame_no = df["frame"].to_numpy()
         rate = max(len(df) / (int(frame_no.max()) - int(frame_no.min()) + 1), 1.0)
         sides = np.maximum(values.max(axis=0) - values.min(axis=0), 1.0)
         kwargs["clutter_density"] = float(rate / np.prod(sides))
     tr = BranchingTracker(
         len(cols),
         process_std=process_std,
+        diffusion_std=diffusion_std,
         measurement_std=measurement_std,
+        max_speed=max_speed,
         confidence=confidence,
         memory=memory,
         max_misses=max_misses,
@@ -1065,10 +1132,10 @@ def link(
         names=cols,
         **kwargs,
     )
-    frames = np.sort(df["frame"].unique())
+    frames = np.sort(np.unique(frame_no))
     rows = []
     for f in range(int(frames.min()), int(frames.max()) + 1) if len(frames) else []:
-        sel = np.flatnonzero(df["frame"].to_numpy() == f)
+        sel = np.flatnonzero(frame_no == f)
         rows.append(sel)
         tr.update(df.loc[sel, cols].to_numpy(dtype=float), time=(f - frames.min()) * dt)
     gid_to_row = np.concatenate(rows) if rows else np.zeros(0, np.int64)
@@ -1078,4 +1145,4 @@ def link(
     particle[gid_to_row[t["detection"].to_numpy()[hit]]] = t["particle"].to_numpy()[hit]
     out = detections.copy()
     out["particle"] = particle
-    return out
+    return out if keep_unlinked else out[particle >= 0]

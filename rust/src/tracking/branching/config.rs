@@ -58,6 +58,8 @@ impl Selection {
 pub struct TrackerConfig {
     pub order: Vec<usize>,
     pub process_std: Vec<f64>,
+    /// Std of a random walk of the value itself per unit time (diffusion; 0 = none).
+    pub diffusion_std: Vec<f64>,
     pub measurement_std: Vec<f64>,
     pub n_spatial: usize,
     pub confidence: f64,
@@ -79,6 +81,9 @@ pub struct TrackerConfig {
     /// gate); `None` = every one, the literal [K93] rule.
     pub max_children: Option<usize>,
     pub merge_depth: usize,
+    /// N-scan commitment: frames after which the measurement a sequence of the online answer
+    /// took belongs to its tree (`None` = never).
+    pub commit_lag: Option<usize>,
     pub maneuver_std: Option<Vec<f64>>,
     pub maneuver_prob: f64,
     pub min_hits: usize,
@@ -114,15 +119,31 @@ fn check_scale(value: f64, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Zero, or a positive scale of at most [`MAX_SCALE`].
+fn check_scale_or_zero(value: f64, name: &str) -> Result<()> {
+    if !(value.is_finite() && value >= 0.0) {
+        return Err(invalid(format!(
+            "{name} must be finite and >= 0, got {value}"
+        )));
+    }
+    if value > 0.0 {
+        check_scale(value, name)?;
+    }
+    Ok(())
+}
+
 impl TrackerConfig {
     /// The defaults of the Python class for k parameters, the first min(k, 2) spatial: order 1
-    /// (nearly constant velocity), process std 0.1, measurement std 0.5, β = 0.99, N = 4, at most
-    /// 2 misses, P_d = 0.9, clutter density estimated, 4 hits to confirm, deletion below −5.
+    /// (nearly constant velocity), process std 0.1, no diffusion, measurement std 0.5, β = 0.99,
+    /// N = 4, at most 2 misses, P_d = 0.9, clutter density estimated, 4 hits to confirm,
+    /// deletion below −5, commitment after 1 frame, velocity jumps of max_speed / 4 = 1.5 on
+    /// the positions.
     pub fn with_defaults(k: usize) -> TrackerConfig {
         let (n_confirm, max_misses) = (4, 2);
         TrackerConfig {
             order: vec![1; k],
             process_std: vec![0.1; k],
+            diffusion_std: vec![0.0; k],
             measurement_std: vec![0.5; k],
             n_spatial: k.min(2),
             confidence: 0.99,
@@ -141,7 +162,13 @@ impl TrackerConfig {
             max_seeds: 2_000,
             max_children: Some(DEFAULT_MAX_CHILDREN),
             merge_depth: 3,
-            maneuver_std: None,
+            commit_lag: Some(1),
+            // "auto": max_speed / 4 on the positions, none on the other parameters
+            maneuver_std: Some(
+                (0..k)
+                    .map(|q| if q < k.min(2) { 6.0 / 4.0 } else { 0.0 })
+                    .collect(),
+            ),
             maneuver_prob: 0.01,
             min_hits: n_confirm,
             final_llr: 5.0,
@@ -184,9 +211,13 @@ impl TrackerConfig {
         if k == 0 {
             return Err(invalid("a measurement needs at least one parameter".into()));
         }
-        if self.process_std.len() != k || self.measurement_std.len() != k {
+        if self.process_std.len() != k
+            || self.measurement_std.len() != k
+            || self.diffusion_std.len() != k
+        {
             return Err(invalid(format!(
-                "process_std and measurement_std need {k} values (one per parameter)"
+                "process_std, diffusion_std and measurement_std need {k} values (one per \
+                 parameter)"
             )));
         }
         if let Some(o) = self.order.iter().find(|&&o| o > MAX_MOTION_ORDER) {
@@ -204,13 +235,13 @@ impl TrackerConfig {
             .process_std
             .iter()
             .zip(std::iter::repeat("process_std"))
+            .chain(
+                self.diffusion_std
+                    .iter()
+                    .zip(std::iter::repeat("diffusion_std")),
+            )
         {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(format!("{name} must be finite and >= 0, got {v}")));
-            }
-            if v > 0.0 {
-                check_scale(v, name)?;
-            }
+            check_scale_or_zero(v, name)?;
         }
         for &v in &self.measurement_std {
             check_scale(v, "measurement_std")?;
@@ -261,12 +292,24 @@ impl TrackerConfig {
         if self.max_children == Some(0) {
             return Err(invalid("max_children must be at least 1 (or None)".into()));
         }
+        if let Some(lag) = self.commit_lag {
+            if lag == 0 || lag > MAX_MEMORY {
+                return Err(invalid(format!(
+                    "commit_lag must lie in 1..={MAX_MEMORY} (or None), got {lag}"
+                )));
+            }
+        }
         if let Some(man) = &self.maneuver_std {
             if man.len() != k {
                 return Err(invalid(format!("maneuver_std needs {k} values")));
             }
             for &v in man {
-                check_scale(v, "maneuver_std")?;
+                check_scale_or_zero(v, "maneuver_std")?;
+            }
+            if man.iter().all(|&v| v == 0.0) {
+                return Err(invalid(
+                    "maneuver_std needs a positive value (or None for no manoeuvre branch)".into(),
+                ));
             }
             if !(self.maneuver_prob > 0.0 && self.maneuver_prob < 1.0) {
                 return Err(invalid(format!(

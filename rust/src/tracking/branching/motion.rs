@@ -7,8 +7,14 @@ pub const MAX_MOTION_ORDER: usize = 4;
 /// Transition F (d × d, row-major) and process-noise covariance Q of one parameter over a
 /// step τ: F[i][j] = τ^(j−i)/(j−i)!, Q = σ² g gᵀ with g_i = τ^(d−i)/(d−i)!, d = ν + 1
 /// (a white (ν+1)-th derivative held over the step; ν = 1 is the white-noise-acceleration
-/// model).
-pub(crate) fn motion_matrices(order: usize, tau: f64, process_std: f64) -> (Vec<f64>, Vec<f64>) {
+/// model), plus σ_D² τ on the value: a diffusion (random walk of the value itself, variance
+/// growing with τ) of std `diffusion_std` per unit time.
+pub(crate) fn motion_matrices(
+    order: usize,
+    tau: f64,
+    process_std: f64,
+    diffusion_std: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let d = order + 1;
     let mut f = vec![0.0; d * d];
     for i in 0..d {
@@ -26,6 +32,7 @@ pub(crate) fn motion_matrices(order: usize, tau: f64, process_std: f64) -> (Vec<
             q[i * d + j] = s2 * (g[i] * g[j]);
         }
     }
+    q[0] += diffusion_std * diffusion_std * tau;
     (f, q)
 }
 
@@ -75,18 +82,27 @@ mod tests {
 
     #[test]
     fn constant_velocity_matrices() {
-        let (f, q) = motion_matrices(1, 2.0, 0.5);
+        let (f, q) = motion_matrices(1, 2.0, 0.5, 0.0);
         assert_eq!(f, vec![1.0, 2.0, 0.0, 1.0]);
         // g = (τ²/2, τ) = (2, 2); Q = 0.25 g gᵀ
         assert_eq!(q, vec![1.0, 1.0, 1.0, 1.0]);
-        let (f, _) = motion_matrices(2, 3.0, 1.0);
+        let (f, _) = motion_matrices(2, 3.0, 1.0, 0.0);
         assert_eq!(f[2], 4.5);
+    }
+
+    #[test]
+    fn diffusion_adds_a_random_walk_of_the_value() {
+        // Q = σ² g gᵀ + σ_D² τ e₀e₀ᵀ: only Q[0][0] changes, by σ_D² τ = 0.25 · 2
+        let (_, q) = motion_matrices(1, 2.0, 0.5, 0.5);
+        assert_eq!(q, vec![1.5, 1.0, 1.0, 1.0]);
+        let (_, q) = motion_matrices(0, 2.0, 0.0, 3.0);
+        assert_eq!(q, vec![18.0]);
     }
 
     #[test]
     fn kalman_step_matches_the_closed_form() {
         // random walk (ν = 0): P⁻ = P + Q, gain = P⁻/(P⁻ + R)
-        let (f, q) = motion_matrices(0, 1.0, 1.0);
+        let (f, q) = motion_matrices(0, 1.0, 1.0, 0.0);
         let (mut xp, mut pp) = ([0.0], [0.0]);
         predict(&f, &q, &[2.0], &[3.0], &mut xp, &mut pp);
         assert_eq!(pp[0], 4.0);

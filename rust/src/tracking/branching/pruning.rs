@@ -1,10 +1,10 @@
-//! The five pruning rules of the branching tracker (module docstring of the reference):
-//! tentative time-out, merging inside a tree, the per-tree cap with protected sequences,
-//! cross-tree duplicates, the global cap. Every rule maps a list of child rows (ascending) to
-//! the surviving ones; the children are compacted in place once, at the end.
+//! The pruning rules of the branching tracker (module docstring of the reference): tentative
+//! time-out, merging inside a tree, the per-tree cap with protected sequences, cross-tree
+//! duplicates, the N-scan commitment, the global cap. Every rule maps a list of child rows
+//! (ascending) to the surviving ones; the children are compacted in place once, at the end.
 
 use super::hypotheses::{Hypotheses, Widths};
-use super::tracker::{splitmix64, BranchingTracker};
+use super::tracker::{greedy, splitmix64, BranchingTracker};
 use std::cmp::Ordering;
 use std::collections::HashMap;
 
@@ -17,6 +17,7 @@ impl BranchingTracker {
         let idx = merge_within_trees(&c, w, idx);
         let idx = cap_per_tree(tr, &c, idx);
         let idx = cross_tree_duplicates(tr, &c, idx);
+        let idx = commit_to_online_answer(tr, &c, idx);
         let idx = global_cap(tr, &c, idx);
         let mut c = c;
         if idx.len() < c.len() {
@@ -200,8 +201,9 @@ fn protected(
     is_protected
 }
 
-/// Rule 4: of two trees' sequences with the same last D entries, the younger one dies when it
-/// has at most ν_max+1 measurements the older one lacks.
+/// Rule 4: of two trees' sequences with the same last D entries, the younger one (started
+/// strictly later: two starts of one frame may be the target's and a stray point's that hopped
+/// onto it) dies when it has at most ν_max+1 measurements the older one lacks.
 fn cross_tree_duplicates(tr: &BranchingTracker, c: &Hypotheses, idx: Vec<usize>) -> Vec<usize> {
     let w = tr.w;
     // (hash of the last D entries, row) of the sequences with at least two measured entries;
@@ -260,7 +262,7 @@ fn kill_younger_duplicates(
     for &y in members {
         let killed = kept
             .iter()
-            .any(|&o| c.tree[o] != c.tree[y] && dominated(tr, c, y, o));
+            .any(|&o| c.tree[o] != c.tree[y] && c.start[o] < c.start[y] && dominated(tr, c, y, o));
         if killed {
             dead[y] = true;
         } else {
@@ -289,6 +291,74 @@ fn dominated(tr: &BranchingTracker, c: &Hypotheses, y: usize, o: usize) -> bool 
         };
     }
     extra <= limit
+}
+
+/// N-scan commitment (not in [K93]): the online answer over the children commits to the tree
+/// of each chosen sequence the final answer could take (score ≥ `final_llr`, at least
+/// `min_hits` measurements) the measurement it took `commit_lag` frames ago; a sequence of
+/// another tree holding that measurement dies, and a confirmed one offers its last measured
+/// node before that frame as its tree's candidate. Without it every tree keeps the best past
+/// for each future on its own, and the trees of two close targets can all adopt the same
+/// past.
+fn commit_to_online_answer(
+    tr: &mut BranchingTracker,
+    c: &Hypotheses,
+    idx: Vec<usize>,
+) -> Vec<usize> {
+    let Some(lag) = tr.cfg.commit_lag else {
+        return idx;
+    };
+    let nodes = &tr.nodes;
+    // the node of frame t − lag of a child (its `node` is its parent, of frame t − 1)
+    let back = |i: usize| {
+        let mut n = c.node[i];
+        for _ in 1..lag {
+            if n < 0 {
+                break;
+            }
+            n = nodes.parent[n as usize];
+        }
+        n
+    };
+    let (final_llr, min_hits) = (tr.cfg.final_llr, tr.cfg.min_hits as i64);
+    let mut owner: HashMap<i64, i64> = HashMap::new();
+    for i in greedy(c, tr.w, idx.iter().copied()) {
+        if c.llr[i] < final_llr || c.hits[i] < min_hits {
+            continue; // not (yet) a track the final answer could take
+        }
+        let n = back(i);
+        if n >= 0 && nodes.meas[n as usize] >= 0 {
+            owner.entry(nodes.meas[n as usize]).or_insert(c.tree[i]);
+        }
+    }
+    if owner.is_empty() {
+        return idx;
+    }
+    let mut offers = Vec::new();
+    let keep = idx
+        .into_iter()
+        .filter(|&i| {
+            let n = back(i);
+            let lost = n >= 0
+                && owner
+                    .get(&nodes.meas[n as usize])
+                    .is_some_and(|&tree| tree != c.tree[i]);
+            if lost && c.conf[i] {
+                let mut before = nodes.parent[n as usize];
+                while before >= 0 && nodes.meas[before as usize] < 0 {
+                    before = nodes.parent[before as usize];
+                }
+                if before >= 0 {
+                    offers.push((c.tree[i], before, nodes.llr[before as usize]));
+                }
+            }
+            !lost
+        })
+        .collect();
+    for (tree, node, llr) in offers {
+        tr.offer_candidate(tree, node, llr);
+    }
+    keep
 }
 
 /// Rule 5: at most `max_hypotheses` (confirmed first, then by score); a confirmed sequence cut

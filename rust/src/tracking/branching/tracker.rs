@@ -298,7 +298,12 @@ impl BranchingTracker {
         };
         for q in 0..k {
             let d = self.dims[q];
-            let (f, qn) = motion_matrices(self.cfg.order[q], tau, self.cfg.process_std[q]);
+            let (f, qn) = motion_matrices(
+                self.cfg.order[q],
+                tau,
+                self.cfg.process_std[q],
+                self.cfg.diffusion_std[q],
+            );
             let r = self.cfg.measurement_std[q].powi(2);
             let (so, co) = (self.state_off[q], self.cov_off[q]);
             for i in 0..n {
@@ -658,22 +663,7 @@ impl BranchingTracker {
     /// Confirmed live sequences in decreasing score, at most one per tree, none sharing one of
     /// its last D measurements with a sequence taken before.
     pub fn greedy_answer(&self) -> Vec<usize> {
-        let h = &self.h;
-        let mut idx: Vec<usize> = (0..h.len()).filter(|&i| h.conf[i]).collect();
-        idx.sort_by(|&a, &b| h.llr[b].total_cmp(&h.llr[a]));
-        let mut trees = std::collections::HashSet::new();
-        let mut meas = std::collections::HashSet::new();
-        let mut out = Vec::new();
-        for i in idx {
-            let recent = h.recent_row(i, self.w);
-            if trees.contains(&h.tree[i]) || recent.iter().any(|g| *g >= 0 && meas.contains(g)) {
-                continue;
-            }
-            trees.insert(h.tree[i]);
-            meas.extend(recent.iter().copied().filter(|&g| g >= 0));
-            out.push(i);
-        }
-        out
+        greedy(&self.h, self.w, 0..self.h.len())
     }
 
     fn online_answer(&mut self) {
@@ -721,6 +711,27 @@ impl BranchingTracker {
         let f = self.frame_offsets.partition_point(|&o| o <= gid) - 1;
         Some((f, gid - self.frame_offsets[f]))
     }
+}
+
+/// The confirmed sequences among `rows` (ascending) in decreasing score (ties: the earlier
+/// row), at most one per tree, none sharing one of its last D measurements with a sequence
+/// taken before: the online answer.
+pub(crate) fn greedy(h: &Hypotheses, w: Widths, rows: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut idx: Vec<usize> = rows.filter(|&i| h.conf[i]).collect();
+    idx.sort_by(|&a, &b| h.llr[b].total_cmp(&h.llr[a]));
+    let mut trees = std::collections::HashSet::new();
+    let mut meas = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    for i in idx {
+        let recent = h.recent_row(i, w);
+        if trees.contains(&h.tree[i]) || recent.iter().any(|g| *g >= 0 && meas.contains(g)) {
+            continue;
+        }
+        trees.insert(h.tree[i]);
+        meas.extend(recent.iter().copied().filter(|&g| g >= 0));
+        out.push(i);
+    }
+    out
 }
 
 /// The splitmix64 finaliser (a portable hash for the deterministic seed subset).
