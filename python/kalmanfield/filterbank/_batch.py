@@ -64,6 +64,8 @@ def _checked(z: np.ndarray, m: int) -> np.ndarray:
         )
     if z.shape[0] == 0:
         raise ValueError("measurements need at least one trajectory")
+    if z.shape[1] == 0:
+        raise ValueError("measurements need at least one frame")
     return np.ascontiguousarray(z)
 
 
