@@ -1,10 +1,8 @@
 //! Criterion benchmarks of the random-field kernels (run with `cargo bench`).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::cascade::{sample_into, stream_frame_into};
-use kalmanfield::difference_gram::difference_gram;
-use kalmanfield::lag_products::lag_products;
-use kalmanfield::{FieldModel, Noise};
+use kalmanfield::field::{sample_into, stream_frame_into, DrivingNoise, FieldModel};
+use kalmanfield::identification::{difference_gram, lag_products};
 
 fn one_thread<R>(f: impl FnOnce() -> R + Send) -> R
 where
@@ -28,18 +26,20 @@ fn bench_sample(c: &mut Criterion) {
         group.bench_function(BenchmarkId::new("f64_1thread", order), |b| {
             b.iter(|| {
                 one_thread(|| {
-                    sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap()
+                    sample_into(&model, &mut out64, &[side, side], DrivingNoise::Seeded(1)).unwrap()
                 })
             })
         });
         group.bench_function(BenchmarkId::new("f64_all_threads", order), |b| {
-            b.iter(|| sample_into(&model, &mut out64, &[side, side], Noise::Seeded(1)).unwrap())
+            b.iter(|| {
+                sample_into(&model, &mut out64, &[side, side], DrivingNoise::Seeded(1)).unwrap()
+            })
         });
         let mut out32 = vec![0.0f32; side * side];
         group.bench_function(BenchmarkId::new("f32_1thread", order), |b| {
             b.iter(|| {
                 one_thread(|| {
-                    sample_into(&model, &mut out32, &[side, side], Noise::Seeded(1)).unwrap()
+                    sample_into(&model, &mut out32, &[side, side], DrivingNoise::Seeded(1)).unwrap()
                 })
             })
         });
@@ -53,7 +53,7 @@ fn bench_noise(c: &mut Criterion) {
     group.throughput(Throughput::Elements(len as u64));
     let mut line = vec![0.0f64; len];
     group.bench_function("fill_line", |b| {
-        b.iter(|| Noise::Seeded(1).fill(&mut line, 0))
+        b.iter(|| DrivingNoise::Seeded(1).fill(&mut line, 0))
     });
     group.finish();
 }
@@ -75,7 +75,7 @@ fn bench_stream(c: &mut Criterion) {
                     &[side, side],
                     &[&previous],
                     5,
-                    Noise::Seeded(1),
+                    DrivingNoise::Seeded(1),
                 )
                 .unwrap()
             })
@@ -89,7 +89,7 @@ fn bench_identification(c: &mut Criterion) {
     let shape = [2048usize, 2048];
     let model = FieldModel::new(&[0.9, 0.8], &[2, 3], 1.0).unwrap();
     let mut field = vec![0.0f64; shape[0] * shape[1]];
-    sample_into(&model, &mut field, &shape, Noise::Seeded(1)).unwrap();
+    sample_into(&model, &mut field, &shape, DrivingNoise::Seeded(1)).unwrap();
     let mut group = c.benchmark_group("identification_2048");
     group.throughput(Throughput::Elements(field.len() as u64));
     group.sample_size(10);

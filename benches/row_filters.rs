@@ -2,12 +2,11 @@
 //! the optimal one on 512², one thread, plans built outside the timing.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::banded::SymmetricBand;
-use kalmanfield::cascade::sample_into;
-use kalmanfield::row_modes::ModeSet;
-use kalmanfield::scalar_row_filter::ScalarRowFilter;
-use kalmanfield::vector_row_filter::VectorRowFilter;
-use kalmanfield::{FieldModel, Noise};
+use kalmanfield::field::{sample_into, DrivingNoise, FieldModel};
+use kalmanfield::linalg::SymmetricBand;
+use kalmanfield::rowfilter::ModeSet;
+use kalmanfield::rowfilter::ScalarRowFilter;
+use kalmanfield::rowfilter::VectorRowFilter;
 
 fn one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     rayon::ThreadPoolBuilder::new()
@@ -19,7 +18,7 @@ fn one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 
 fn image(model: &FieldModel, side: usize) -> Vec<f64> {
     let mut z = vec![0.0; side * side];
-    sample_into(model, &mut z, &[side, side], Noise::Seeded(3)).unwrap();
+    sample_into(model, &mut z, &[side, side], DrivingNoise::Seeded(3)).unwrap();
     z
 }
 

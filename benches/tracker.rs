@@ -3,8 +3,7 @@
 //! 0.5 px, uniform clutter; the anchor configuration of `benches/bench_tracking.py`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kalmanfield::branching::tracker::splitmix64;
-use kalmanfield::branching::{BranchingTracker, TrackerConfig};
+use kalmanfield::tracking::{splitmix64, BranchingTracker, TrackerConfig};
 
 /// Uniform in [0, 1) from a counter.
 fn uniform(counter: u64) -> f64 {

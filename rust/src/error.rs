@@ -33,7 +33,7 @@ pub type Result<T> = std::result::Result<T, FieldError>;
 
 /// `len` zeros, or an `OutOfMemory` error naming `what` when they cannot be allocated (a
 /// frame-sized buffer: an infallible allocation would abort the process).
-pub fn try_zeros(len: usize, what: &str) -> Result<Vec<f64>> {
+pub(crate) fn try_zeros(len: usize, what: &str) -> Result<Vec<f64>> {
     let mut values = Vec::new();
     values.try_reserve_exact(len).map_err(|_| {
         FieldError::OutOfMemory(format!(

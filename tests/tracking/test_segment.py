@@ -215,7 +215,7 @@ def test_frame_column_and_empty_frames():
         ((np.array([[object()]]), 0.0), {}, TypeError, "real numbers"),
         ((np.zeros((3, 3)), np.nan), {}, ValueError, "threshold"),
         ((np.zeros((3, 3)), -np.inf), {}, ValueError, "threshold"),
-        ((np.zeros((3, 3)), "1"), {}, TypeError, "threshold"),
+        ((np.zeros((3, 3)), "1"), {}, ValueError, "threshold"),
         ((np.zeros((3, 3)), 0.0), {"frame_no": 1.0}, TypeError, "frame_no"),
     ],
 )

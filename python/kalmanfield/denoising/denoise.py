@@ -379,8 +379,6 @@ def _options(
     """The settings checked (and `model`, which the 0.1.0 spelling ``adaptive=True`` read as
     the detail model): the 0.1.0 spellings map to today's with a warning."""
     if method == "scalar" or adaptive is not None:
-        if method == "vector" and adaptive:
-            raise ValueError("adaptive denoising needs method='adaptive' (per-pixel noise)")
         new = "vector" if method == "vector" else "stationary" if adaptive is False else "adaptive"
         spelling = f"method={new!r}"
         if new == "adaptive" and model is not None:  # 0.1.0: the model of the detail field
@@ -391,6 +389,8 @@ def _options(
             DeprecationWarning,
             stacklevel=4,  # (the caller of denoise, past keyword_only's wrapper)
         )
+        if method == "vector" and adaptive:
+            raise ValueError("adaptive denoising needs method='adaptive' (per-pixel noise)")
         method = new
     if method not in _METHODS:
         raise ValueError(f"method must be one of {list(_METHODS)}, got {method!r}")

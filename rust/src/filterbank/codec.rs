@@ -6,8 +6,8 @@
 use super::identifier::TypeIdentifier;
 use super::imm::{ImmEstimator, ImmTrajectory};
 use super::lanes::Trajectory;
-use crate::error::{FieldError, Result};
 use crate::kalman::Gaussian;
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 
 const BANK_MAGIC: u64 = u64::from_le_bytes(*b"KFBANK01");

@@ -2,7 +2,7 @@
 //! probability-ratio test for two types (method page *Kalman filter bank*, "Decisions").
 
 use super::probabilities::check_probabilities;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// The decision of a trajectory before the sequential test crosses a threshold.
 pub const UNDECIDED: i64 = -1;

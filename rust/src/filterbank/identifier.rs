@@ -5,7 +5,7 @@ use super::lanes::{advance, Dynamics, Lane, Trajectory, LANES};
 use super::model::{bank_measurement_dim, BankModel};
 use super::schedule::{schedule, Schedule};
 use super::validation::checked_batch;
-use crate::error::Result;
+use crate::Result;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 

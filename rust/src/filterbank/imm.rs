@@ -8,8 +8,8 @@ use super::decision::normalised;
 use super::model::{bank_measurement_dim, BankModel};
 use super::probabilities::check_probabilities;
 use super::validation::checked_batch;
-use crate::error::{FieldError, Result};
 use crate::kalman::{predict, update, Gaussian};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 

@@ -91,7 +91,7 @@ pub(crate) fn advance<const L: usize>(
 ) {
     assert_eq!(lanes.len(), L);
     #[cfg(target_arch = "x86_64")]
-    if crate::banded::fused_available() {
+    if crate::simd::fused_available() {
         // SAFETY: the CPU has FMA and AVX2.
         return unsafe { advance_avx2::<L>(dynamics, schedules, rule, lanes) };
     }

@@ -1,7 +1,7 @@
 //! One candidate type: a linear-Gaussian model with its prior state.
 
-use crate::error::{FieldError, Result};
 use crate::kalman::{Gaussian, LinearGaussian};
+use crate::{FieldError, Result};
 
 /// The dynamics of a type and the prior N(x0, P0) of its state one step before the first
 /// frame.

@@ -1,6 +1,6 @@
 //! Checks of a probability vector (priors, mode probabilities, transition rows).
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// Largest |Σp − 1| accepted as rounding.
 pub const SUM_TOLERANCE: f64 = 1e-9;

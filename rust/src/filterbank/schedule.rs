@@ -3,8 +3,8 @@
 //! entries of K and S⁻¹ that are non-zero on some frame are kept (block-diagonal models have
 //! block-diagonal gains), S⁻¹ as its upper triangle with doubled off-diagonal entries.
 
-use crate::error::Result;
 use crate::kalman::{gain, predict_cov, LinearGaussian};
+use crate::Result;
 use nalgebra::DMatrix;
 
 /// ln 2π.
@@ -47,7 +47,7 @@ pub(crate) fn schedule(
             gains.push(Some(g));
         } else {
             if predicted.iter().any(|v| !v.is_finite()) {
-                return Err(crate::error::FieldError::NonFinite(
+                return Err(crate::FieldError::NonFinite(
                     "the predicted covariance overflowed float64 (too many missed frames)".into(),
                 ));
             }

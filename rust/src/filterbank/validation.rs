@@ -1,6 +1,6 @@
 //! Checks of a measurement batch: every row is complete (finite) or entirely NaN (missed).
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// Largest |measurement| accepted: the filters square innovations, and beyond ~1e154 those
 /// squares leave float64.

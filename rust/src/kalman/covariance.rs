@@ -1,7 +1,7 @@
 //! Checks of a covariance matrix: finite, square, symmetric to rounding, positive
 //! (semi-)definite. The checked matrix is returned symmetrised, (A + Aᵀ)/2.
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// Largest relative asymmetry |a_ij − a_ji| / max|a| accepted as rounding.

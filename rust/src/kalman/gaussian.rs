@@ -1,7 +1,7 @@
 //! A Gaussian state estimate N(mean, cov).
 
 use super::covariance::{check_covariance, Definiteness};
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 
 /// A state estimate: mean and covariance.

@@ -1,7 +1,7 @@
 //! The linear-Gaussian state-space model (F, Q, H, R).
 
 use super::covariance::{check_covariance, Definiteness};
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::DMatrix;
 
 /// x(k) = F x(k−1) + w, w ~ N(0, Q); z(k) = H x(k) + v, v ~ N(0, R).

@@ -6,7 +6,7 @@
 //! the positions; R = measurement_std² I.
 
 use super::linear_gaussian::LinearGaussian;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::DMatrix;
 
 fn invalid(message: String) -> FieldError {

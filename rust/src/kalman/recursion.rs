@@ -3,7 +3,7 @@
 
 use super::gaussian::Gaussian;
 use super::linear_gaussian::LinearGaussian;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 
 /// ln 2π.

@@ -3,7 +3,7 @@
 //! the whole measurement sequence, the motion models' Q against the integral defining it.
 
 use super::*;
-use crate::error::FieldError;
+use crate::FieldError;
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;

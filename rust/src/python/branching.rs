@@ -1,6 +1,6 @@
 //! Binding of the branching tracker (SPEC §3.1–3.3): `kalmanfield._core.BranchingTracker`.
 
-use crate::branching::{BranchingTracker, Selection, TrackerConfig};
+use crate::tracking::{BranchingTracker, Selection, TrackerConfig, MAX_MOTION_ORDER};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -217,9 +217,6 @@ fn tracker_defaults(py: Python<'_>, k: usize) -> PyResult<Bound<'_, PyDict>> {
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyBranchingTracker>()?;
     m.add_function(wrap_pyfunction!(tracker_defaults, m)?)?;
-    m.add(
-        "MAX_MOTION_ORDER",
-        crate::branching::motion::MAX_MOTION_ORDER,
-    )?;
+    m.add("MAX_MOTION_ORDER", MAX_MOTION_ORDER)?;
     Ok(())
 }

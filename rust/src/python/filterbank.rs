@@ -2,7 +2,7 @@
 //! model check; the typed fronts are in `kalmanfield.filterbank`.
 
 use super::kalman::{array2, gaussian, linear_gaussian};
-use super::with_threads;
+use super::threads::with_threads;
 use crate::filterbank::{BankModel, ImmEstimator, TypeIdentifier};
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use numpy::{PyReadonlyArray3, PyUntypedArrayMethods, ToPyArray};

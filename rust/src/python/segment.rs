@@ -1,6 +1,7 @@
 //! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment` and `segment_stack`.
 
-use crate::segment::{
+use super::convert::{contiguous, with_dtype};
+use crate::tracking::{
     segment as segment_kernel, segment_stack as stack_kernel, Pixel, Segment, Segmentation,
     StackSegmentation,
 };
@@ -49,18 +50,12 @@ fn segment<'py>(
         let labels = PyArray1::from_vec(py, s.labels).reshape(shape)?;
         Ok((table(py, &s.segments)?, labels))
     };
-    macro_rules! try_dtype {
-        ($($t:ty),*) => {$(
-            if let Ok(a) = frame.extract::<PyReadonlyArray2<$t>>() {
-                return into_arrays(kernel(py, &a, threshold, min_area, connectivity)?);
-            }
-        )*};
-    }
-    try_dtype!(u8, u16, f32, f64);
-    Err(PyTypeError::new_err(format!(
+    with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
+        into_arrays(kernel(py, &a, threshold, min_area, connectivity)?)
+    }, else Err(PyTypeError::new_err(format!(
         "frame dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
         array.dtype()
-    )))
+    ))))
 }
 
 /// Runs the kernel on the array's pixels with the GIL released.
@@ -72,9 +67,7 @@ fn kernel<T: Pixel + Element>(
     connectivity: u8,
 ) -> PyResult<Segmentation> {
     let (h, w) = (frame.shape()[0], frame.shape()[1]);
-    let values = frame
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("frame must be C-contiguous"))?;
+    let values = contiguous(frame, "frame")?;
     Ok(py.detach(|| segment_kernel(values, h, w, threshold, min_area, connectivity))?)
 }
 
@@ -116,25 +109,16 @@ fn segment_stack<'py>(
         dict.set_item("frame", PyArray1::from_vec(py, frame_of))?;
         Ok((dict, PyArray1::from_vec(py, s.labels).reshape(shape)?))
     };
-    macro_rules! try_dtype {
-        ($($t:ty),*) => {$(
-            if let Ok(a) = stack.extract::<PyReadonlyArray3<$t>>() {
-                let values = a
-                    .as_slice()
-                    .map_err(|_| PyValueError::new_err("stack must be C-contiguous"))?;
-                let [f, h, w] = shape;
-                let frames = py.detach(|| {
-                    stack_kernel(values, f, h, w, threshold, min_area, connectivity)
-                })?;
-                return into_arrays(frames);
-            }
-        )*};
-    }
-    try_dtype!(u8, u16, f32, f64);
-    Err(PyTypeError::new_err(format!(
+    with_dtype!(stack, PyReadonlyArray3<u8, u16, f32, f64>, |a| {
+        let values = contiguous(&a, "stack")?;
+        let [f, h, w] = shape;
+        let frames =
+            py.detach(|| stack_kernel(values, f, h, w, threshold, min_area, connectivity))?;
+        into_arrays(frames)
+    }, else Err(PyTypeError::new_err(format!(
         "stack dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
         array.dtype()
-    )))
+    ))))
 }
 
 /// A column name and how to read it off a segment.

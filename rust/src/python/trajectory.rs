@@ -2,7 +2,8 @@
 //! `kalmanfield._core.TrajectoryModel`, `FilterBank`, `DetectorConfig`, `DetectorBank`,
 //! `detect_changes`, `cusum_threshold`, `cusum_arl`, `effective_memory`.
 
-use super::{contiguous, with_threads};
+use super::convert::contiguous;
+use super::threads::with_threads;
 use crate::trajectory::{
     self as kernels, Batch, Detections, DetectorConfig, GainRule, Method, MotionModel, Times,
 };

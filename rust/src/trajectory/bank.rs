@@ -4,7 +4,7 @@
 use super::model::MotionModel;
 use super::series::SeriesFilter;
 use super::state::{Reader, Writer};
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// One series' streaming state.
 pub trait Lane: Clone + Sized {

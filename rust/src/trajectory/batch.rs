@@ -10,11 +10,12 @@
 //! [`SeriesFilter`] series by series; both paths do the same floating-point operations in the
 //! same order, so they give the same bits.
 
-use super::gain::{gain_sequence, Gain};
+use super::gain::Gain;
+use super::gain_recursion::gain_sequence;
 use super::model::MotionModel;
 use super::series::{correct, correct_position, predict, SeriesFilter, MAX_SAMPLE};
 use super::start::least_squares_start;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use rayon::prelude::*;
 
 /// Series per vectorised block.
@@ -386,7 +387,7 @@ impl BlockRun<'_> {
         }
         // a non-finite value never becomes finite again in this recursion
         if !(x.iter().all(|x| x.is_finite()) && v.iter().all(|v| v.is_finite())) {
-            return Err(super::gain::overflow());
+            return Err(super::gain_recursion::overflow());
         }
         scatter(&scratch.pos, n, pos);
         scatter(&scratch.vel, n, vel);

@@ -8,7 +8,7 @@
 use super::innovation_filter::InnovationFilter;
 use super::model::MotionModel;
 use super::state::{Reader, Writer};
-use crate::error::Result;
+use crate::Result;
 
 /// The innovation filter and the two cumulative sums.
 #[derive(Clone, Debug, PartialEq)]

@@ -9,7 +9,7 @@
 //! (Van Dobben de Bruyn's combination of the sides, exact when they never are positive
 //! together and very close otherwise); h is the root of 2/L(0) = 1 - confidence.
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 use nalgebra::{DMatrix, DVector};
 use statrs::distribution::{Continuous, ContinuousCDF, Normal};
 

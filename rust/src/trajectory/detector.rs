@@ -19,8 +19,8 @@ use super::model::MotionModel;
 use super::series::{check_sample, SeriesFilter};
 use super::state::{Reader, Writer};
 use super::time_step;
-use crate::chi_squared::chi_squared_quantile;
-use crate::error::{FieldError, Result};
+use crate::identification::chi_squared_quantile;
+use crate::{FieldError, Result};
 use rayon::prelude::*;
 
 /// The longest χ² window.

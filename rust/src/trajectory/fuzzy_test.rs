@@ -13,7 +13,7 @@ use super::fuzzy_gains::predicted_spread;
 use super::model::{GainRule, MotionModel};
 use super::series::SeriesFilter;
 use super::state::{Reader, Writer};
-use crate::error::Result;
+use crate::Result;
 
 /// The statistics after a tested sample (applied unless it alarms).
 #[derive(Clone, Copy, Debug)]

@@ -15,7 +15,7 @@ use super::kalman_gains;
 use super::model::{GainRule, MotionModel};
 use super::state::{Reader, Writer};
 use super::time_step;
-use crate::error::Result;
+use crate::Result;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {

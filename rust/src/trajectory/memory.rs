@@ -3,7 +3,7 @@
 //! k = (α, β/τ), h = (1, 0); the memory at level ω is the number of lags j ≥ 0 with
 //! |w_j| > ω (the current sample included).
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// Lags examined at most.
 const MAX_LAGS: usize = 10_000_000;

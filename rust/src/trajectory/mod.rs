@@ -15,6 +15,7 @@ pub mod detector;
 mod fuzzy_gains;
 mod fuzzy_test;
 pub mod gain;
+mod gain_recursion;
 mod innovation_filter;
 mod kalman_gains;
 pub mod memory;
@@ -33,12 +34,13 @@ pub use detector::{
     detect_batch, Detections, DetectorBank, DetectorConfig, DetectorLane, DetectorSettings, Method,
     Outcome,
 };
-pub use gain::{gain_sequence, Gain};
+pub use gain::Gain;
+pub use gain_recursion::gain_sequence;
 pub use memory::effective_memory;
 pub use model::{GainRule, MotionModel};
 pub use series::SeriesFilter;
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// τ = t - t_last (NaN for the first sample, when t_last is NaN); an error unless `t` is
 /// finite and later than `t_last`.
@@ -58,7 +60,7 @@ pub(crate) fn time_step(t_last: f64, t: f64) -> Result<f64> {
         )));
     }
     if !tau.is_finite() {
-        return Err(gain::overflow());
+        return Err(gain_recursion::overflow());
     }
     Ok(tau)
 }

@@ -5,7 +5,7 @@
 //! membership functions exp(-a²/s²) of the fuzzy filter, or the standard deviations of the
 //! Kalman filter of the same model.
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// The largest spread accepted: the recursions square spreads times time steps.
 pub const MAX_SPREAD: f64 = 1e100;

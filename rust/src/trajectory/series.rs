@@ -7,12 +7,13 @@
 //! estimate is that of the source's recursion started from the fit on z_0, z_1, z_2. A missing
 //! sample (NaN) skips the correction: the estimate is the prediction.
 
-use super::gain::{self, Gain, Seen, Spread};
+use super::gain::{Gain, Seen, Spread};
+use super::gain_recursion;
 use super::model::MotionModel;
 use super::start::least_squares_start;
 use super::state::{Reader, Writer};
 use super::time_step;
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// x̂^e_n = x̂_{n-1} + x̂'_{n-1}τ_n, x̂'^e_n = x̂'_{n-1}  [K95 7].
 #[inline(always)]
@@ -179,7 +180,7 @@ impl SeriesFilter {
                 && self.v.is_finite()
                 && self.spread.iter().all(|s| s.is_finite()))
         {
-            return Err(gain::overflow());
+            return Err(gain_recursion::overflow());
         }
         Ok((self.x, self.v))
     }
@@ -188,7 +189,7 @@ impl SeriesFilter {
     fn advance(&mut self, model: &MotionModel, tau: f64, z: f64, zv: f64) {
         let (xe, ve) = predict(self.x, self.v, tau);
         let (nu, nu_v, seen) = innovations(model, xe, ve, z, zv);
-        let g = gain::advance(model, &mut self.spread, tau, seen);
+        let g = gain_recursion::advance(model, &mut self.spread, tau, seen);
         (self.x, self.v) = correct(model, xe, ve, &g, nu, nu_v);
     }
 
@@ -202,7 +203,7 @@ impl SeriesFilter {
         let (t, z, zv) = (&wt[..=k], &wz[..=k], &wzv[..=k]);
         let (x0, v0) = least_squares_start(model.has_velocity(), t, z);
         let (nu, nu_v, seen) = innovations(model, x0, v0, z[0], zv[0]);
-        let (spread, g) = gain::start(model, seen.vel);
+        let (spread, g) = gain_recursion::start(model, seen.vel);
         self.spread = spread;
         (self.x, self.v) = correct(model, x0, v0, &g, nu, nu_v);
         for i in 1..=k {

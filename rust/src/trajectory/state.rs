@@ -2,7 +2,7 @@
 //! as exact small integers, and every read is checked, so a truncated array or one saved by
 //! another configuration is an error, not a panic.
 
-use crate::error::{FieldError, Result};
+use crate::{FieldError, Result};
 
 /// Collects a state.
 #[derive(Default)]

@@ -1,7 +1,7 @@
 //! Unit tests of the trajectory kernels (the NumPy twin checks the same in Python).
 
 use super::batch::{filter_batch, Batch, Times};
-use super::gain::gain_sequence;
+use super::gain_recursion::gain_sequence;
 use super::model::{GainRule, MotionModel};
 use super::*;
 
