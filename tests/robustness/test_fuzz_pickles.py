@@ -550,14 +550,6 @@ def corrupt_around(blob: bytes, state: bytes, step, salt: int, inside: bool) -> 
 
 SUITES += [("suite_bank", name, inside) for name in BANKS for inside in (False, True)]
 
-#: the Rust loaders of the banks check the state's layout, not its numbers
-BANK_STATE_DEFECT = pytest.mark.xfail(
-    strict=False,
-    reason="TypeIdentifier/IMMEstimator load_state accepts covariances that are not "
-    "covariances and non-finite or huge numbers: the next frame raises 'the innovation "
-    "covariance ... is not positive definite' or returns NaN (Rust, not fixed here)",
-)
-
 
 @pytest.mark.parametrize("name", list(BANKS))
 def test_corrupt_filter_bank_pickles_outside_the_state_bytes(name):
@@ -566,7 +558,7 @@ def test_corrupt_filter_bank_pickles_outside_the_state_bytes(name):
     assert not failures, report(failures)
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=BANK_STATE_DEFECT) for n in BANKS])
+@pytest.mark.parametrize("name", list(BANKS))
 def test_corrupt_filter_bank_state_bytes(name):
     failures = isolated("suite_bank", name, True)
     assert not failures, report(failures)
@@ -621,14 +613,6 @@ SUITES += [
     ("suite_trajectory", name, inside) for name in TRAJECTORY_STREAMS for inside in (False, True)
 ]
 
-#: the Rust loaders of the trajectory banks check the state's length and flags, not the
-#: magnitude of its numbers
-TRAJECTORY_STATE_DEFECT = pytest.mark.xfail(
-    strict=False,
-    reason="FilterBank/DetectorBank load_state accepts estimates beyond the ±1e150 the "
-    "filters take (e.g. -4e161): the next step raises NonFiniteError (Rust, not fixed here)",
-)
-
 
 @pytest.mark.parametrize("name", list(TRAJECTORY_STREAMS))
 def test_corrupt_trajectory_pickles_outside_the_state_values(name):
@@ -637,9 +621,7 @@ def test_corrupt_trajectory_pickles_outside_the_state_values(name):
     assert not failures, report(failures)
 
 
-@pytest.mark.parametrize(
-    "name", [pytest.param(n, marks=TRAJECTORY_STATE_DEFECT) for n in TRAJECTORY_STREAMS]
-)
+@pytest.mark.parametrize("name", list(TRAJECTORY_STREAMS))
 def test_corrupt_trajectory_state_values(name):
     failures = isolated("suite_trajectory", name, True)
     assert not failures, report(failures)

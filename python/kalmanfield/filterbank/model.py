@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 import numpy as np
@@ -12,6 +13,7 @@ from .._validation import (
     SeedLike,
     check_memory,
     nonnegative_int,
+    pickled_fields,
     positive_float,
     positive_int,
     real_array,
@@ -569,16 +571,33 @@ class LinearGaussianModel:
     __hash__ = None  # type: ignore[assignment]
 
     def __getstate__(self) -> dict[str, Any]:
-        return {"arrays": [a.copy() for a in self._arrays], "name": self.name}
+        arrays = [a.copy() for a in self._arrays]
+        return {"arrays": arrays, "name": self.name, "digest": _digest(arrays)}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(*state["arrays"], name=state["name"])  # type: ignore[misc]
+        arrays, name = pickled_fields(state, "LinearGaussianModel", "arrays", "name")
+        # a valid but altered matrix (an entry of F grown to 1e209) passes the constructor's
+        # checks and overflows frames later: the digest refuses it now (pickles made before
+        # the digest existed have none)
+        if "digest" in state and state["digest"] != _digest(arrays):
+            raise ValueError("the pickled LinearGaussianModel is altered: its matrices changed")
+        self.__init__(*arrays, name=name)  # type: ignore[misc]
 
     def __repr__(self) -> str:
         return (
             f"LinearGaussianModel(name={self.name!r}, state_dim={self.state_dim}, "
             f"measurement_dim={self.measurement_dim})"
         )
+
+
+def _digest(arrays: Any) -> str:
+    """A BLAKE2 digest of the model's matrices (shapes, dtypes and values)."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.asarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
 
 
 def _root(cov: np.ndarray) -> np.ndarray:

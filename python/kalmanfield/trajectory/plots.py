@@ -194,8 +194,11 @@ def plot_change_points(
         raise ValueError(f"series must be below {rows}, the number of series, got {series}")
     pick = (lambda a: a) if samples.ndim == 1 else (lambda a: a[series])
     zz = pick(samples)
-    t = np.arange(zz.size, dtype=float) if times is None else times_array(times, samples.shape)
-    t = t if t.ndim == 1 else t[series]
+    given = times_array(times, samples.shape)
+    if given is None:
+        t = np.arange(zz.size, dtype=float)
+    else:
+        t = given if given.ndim == 1 else given[series]
     plt = _pyplot()
     ax = ax if ax is not None else plt.gca()
     ax.plot(t, zz, ".", color="0.5", ms=3, label="samples")
