@@ -551,19 +551,6 @@ def corrupt_around(blob: bytes, state: bytes, step, salt: int, inside: bool) -> 
 SUITES += [("suite_bank", name, inside) for name in BANKS for inside in (False, True)]
 
 
-@pytest.mark.parametrize("name", list(BANKS))
-def test_corrupt_filter_bank_pickles_outside_the_state_bytes(name):
-    """TypeIdentifier and IMMEstimator mid-stream: the pickle's opcodes, models, settings."""
-    failures = isolated("suite_bank", name, False)
-    assert not failures, report(failures)
-
-
-@pytest.mark.parametrize("name", list(BANKS))
-def test_corrupt_filter_bank_state_bytes(name):
-    failures = isolated("suite_bank", name, True)
-    assert not failures, report(failures)
-
-
 # ------------------------------------------------------------------------------ trajectories
 SAMPLES = np.cumsum(np.random.default_rng(6).standard_normal((3, 20)), axis=1)
 TRAJECTORY_STREAMS = {
@@ -614,14 +601,17 @@ SUITES += [
 ]
 
 
-@pytest.mark.parametrize("name", list(TRAJECTORY_STREAMS))
-def test_corrupt_trajectory_pickles_outside_the_state_values(name):
-    """FuzzyFilter, KalmanFilterCV and ChangeDetector mid-stream (k series or one)."""
-    failures = isolated("suite_trajectory", name, False)
-    assert not failures, report(failures)
+STREAM_SUITES = [("suite_bank", n) for n in BANKS] + [
+    ("suite_trajectory", n) for n in TRAJECTORY_STREAMS
+]
 
 
-@pytest.mark.parametrize("name", list(TRAJECTORY_STREAMS))
-def test_corrupt_trajectory_state_values(name):
-    failures = isolated("suite_trajectory", name, True)
+@pytest.mark.parametrize("inside", [False, True], ids=["around the state", "inside the state"])
+@pytest.mark.parametrize(("suite", "name"), STREAM_SUITES)
+def test_corrupt_bank_and_trajectory_pickles(suite, name, inside):
+    """TypeIdentifier, IMMEstimator (pickled Rust state bytes), FuzzyFilter, KalmanFilterCV
+    and ChangeDetector (pickled state values; k series or one) mid-stream: corruptions of the
+    Rust state (`inside`) or of the rest of the pickle (opcodes, models, priors, settings,
+    flags, last time)."""
+    failures = isolated(suite, name, inside)
     assert not failures, report(failures)
