@@ -19,6 +19,14 @@ ShapeLike = Union[int, Sequence[int]]
 _U64 = 1 << 64
 
 
+def pickled_fields(state: Any, kind: str, *names: str) -> tuple[Any, ...]:
+    """The fields `names` of the pickled state of a `kind` object (a dict); ValueError when
+    the pickle was altered so that it is not a dict holding them."""
+    if not isinstance(state, dict) or not set(names) <= set(state):
+        raise ValueError(f"the pickled {kind} is altered: its state lacks some of {names}")
+    return tuple(state[n] for n in names)
+
+
 def resolve_seed(seed: SeedLike) -> int:
     """A 64-bit seed from an int, a NumPy Generator (one draw) or None (fresh OS entropy)."""
     if seed is None:

@@ -143,3 +143,61 @@ def test_bad_tracks(bank):
         kf.TypeIdentifier.run_tracks(tracks.to_numpy(), bank)
     with pytest.raises(ValueError, match="integers"):
         kf.TypeIdentifier.run_tracks(tracks.assign(frame=[0.5, 1, 2]), bank)
+
+
+def test_motion_models_beyond_memory_are_memory_errors():
+    """The Rust builders abort (or panic on a capacity overflow) when the dense state
+    matrices cannot be allocated; the Python layer refuses such an ndim first."""
+    from kalmanfield.experiments import source_banks
+
+    for build in (
+        kf.LinearGaussianModel.constant_velocity,
+        kf.LinearGaussianModel.constant_acceleration,
+    ):
+        with pytest.raises(MemoryError, match="GiB"):
+            build(1.0, 1.0, ndim=2**40)
+    with pytest.raises(MemoryError, match="GiB"):
+        kf.LinearGaussianModel.singer(1.0, 0.5, 1.0, ndim=2**31)
+    with pytest.raises(MemoryError, match="GiB"):
+        kf.LinearGaussianModel.markov_velocity(1.0, 0.5, 1.0, ndim=2**62)
+    with pytest.raises(MemoryError, match="GiB"):
+        source_banks(ndim=2**40)
+    with pytest.raises(ValueError, match="at least two"):
+        source_banks(rho=(0.5,))
+    with pytest.raises(TypeError, match="ndim"):
+        source_banks(ndim=2.0)
+
+
+def test_a_simulation_beyond_float64_is_an_error():
+    big = kf.LinearGaussianModel(**{**GOOD, "F": [[1e308, 0.0], [0.0, 1.0]]})
+    with pytest.raises(ValueError, match="overflows float64"):
+        big.simulate(3, seed=1, start=[1.0, 0.0])
+    wide = kf.LinearGaussianModel(**{**GOOD, "P0": np.diag([1e308, 1.0])})
+    with pytest.raises(ValueError, match="overflows float64"):
+        wide.simulate(3, 2, seed=1)
+
+
+def test_runs_of_no_frame_are_errors(bank):
+    """The Rust core returns wrongly shaped outputs for zero frames, and panics when asked
+    for the log-likelihoods: refused before it is called."""
+    empty = np.zeros((3, 0, 2))
+    with pytest.raises(ValueError, match="at least one frame"):
+        kf.TypeIdentifier(bank).run(empty, return_log_likelihoods=True)
+    with pytest.raises(ValueError, match="at least one frame"):
+        kf.TypeIdentifier(bank).run(empty[0])
+    with pytest.raises(ValueError, match="at least one frame"):
+        kf.IMMEstimator([bank[3], bank[2]], [[0.9, 0.1], [0.1, 0.9]]).run(empty)
+
+
+def test_tracks_with_values_that_are_not_numbers_or_frames_beyond_int64(bank):
+    tracks = pd.DataFrame({"frame": np.arange(4), "particle": 0, "x": 1.0, "y": 2.0})
+    with pytest.raises(TypeError, match=r"tracks\['x'\]"):
+        kf.TypeIdentifier.run_tracks(tracks.assign(x=["1", "2", "3", "4"]), bank)
+    with pytest.raises(TypeError, match=r"tracks\['y'\]"):
+        kf.TypeIdentifier.run_tracks(tracks.assign(y=np.ones(4, complex)), bank)
+    frames = np.arange(4, dtype=np.uint64) + np.uint64(2**63)
+    with pytest.raises(ValueError, match="int64"):
+        kf.TypeIdentifier.run_tracks(tracks.assign(frame=frames), bank)
+    near = tracks.assign(frame=np.arange(4) + (2**63 - 5))  # int64 frames that follow
+    table = kf.TypeIdentifier.run_tracks(near, bank)
+    assert table.loc[0, "first_frame"] == 2**63 - 5 and table.loc[0, "n_observed"] == 4

@@ -18,6 +18,7 @@ import pytest
 from fuzz_support import LONG, bad_leaves, report, rng, verdict
 
 import kalmanfield as kf
+from kalmanfield import experiments, trajectory
 
 MODEL2 = kf.ARFieldModel([0.9, 0.8], [2, 1])
 MODEL3 = kf.ARFieldModel([0.9, 0.8, 0.7], [1, 2, 1])
@@ -124,9 +125,9 @@ def _images(
         return out
 
     masked = np.ma.MaskedArray(z.copy(), mask=np.zeros(shape, bool))
-    masked.mask.flat[3] = True
+    masked.mask.flat[min(3, z.size - 1)] = True
     strings = z.astype(object)
-    strings.flat[5] = "1.5"
+    strings.flat[min(5, z.size - 1)] = "1.5"
     ragged = [np.atleast_1d(row).tolist() for row in z]
     ragged[-1] = ragged[-1][:-1] or [1.0, 2.0]
     pools = [
@@ -156,7 +157,7 @@ def _images(
         Bad("empty last axis", np.zeros((*shape[:-1], 0)), invalid=False),
         Bad("uint64 max pixel", np.full(shape, 2**64 - 1, np.uint64), invalid=False),
         Bad("int8", (z * 10).astype(np.int8), invalid=False),
-        Bad("float16", z.astype(np.float16), invalid=False),
+        Bad("float16", _float16(z), invalid=False),
         Bad("masked", masked, invalid=False),
         Bad("fortran order", np.asfortranarray(z), invalid=False),
         Bad("strided", np.repeat(z, 2, axis=-1)[..., ::2], invalid=False),
@@ -167,9 +168,14 @@ def _images(
     return [Bad(prefix + b.label, b.value, b.invalid) for b in pools]
 
 
+def _float16(z: np.ndarray) -> np.ndarray:
+    with np.errstate(over="ignore"):  # (values beyond 65504 become inf: a probe as good)
+        return z.astype(np.float16)
+
+
 def _big_object(z: np.ndarray) -> np.ndarray:
     out = z.astype(object)
-    out.flat[2] = 10**400
+    out.flat[min(2, z.size - 1)] = 10**400
     return out
 
 
@@ -236,9 +242,9 @@ def _df(**columns) -> pd.DataFrame:
     return pd.DataFrame(base)
 
 
-def _column_pool(column: str) -> list[Bad]:
+def _column_pool(column: str, table: pd.DataFrame | None = None) -> list[Bad]:
     n = 12
-    base = _df()[column].to_numpy()
+    base = (_df() if table is None else table)[column].to_numpy()
     return [
         Bad("complex", base.astype(complex)),
         Bad("strings", base.astype(str)),
@@ -574,6 +580,406 @@ ENTRIES = [
             pos_columns=[Bad(repr(v), v) for v in ([], ["nope"], "x", [1])],
         ),
         valid={"measurement_std=list", "x=2**63 uint64"},
+    ),
+]
+
+
+# ------------------------------------------------------------------------------ filterbank
+CV = kf.LinearGaussianModel.constant_velocity(1.0, 0.5, 2, 0.5, name="cv")
+STRAIGHT = kf.LinearGaussianModel.singer(1.0, 0.0, 0.0, 2, 0.5, name="straight")
+TURNING = kf.LinearGaussianModel.singer(1.0, 0.8, 0.7, 2, 0.5, name="turning")
+ONE_AXIS = kf.LinearGaussianModel.singer(1.0, 0.8, 0.7, 1, 0.5, name="one axis")
+FRAMES = TURNING.simulate(20, seed=1)[1]  # (20, 2)
+BATCH = TURNING.simulate(20, 3, seed=2)[1]  # (3, 20, 2)
+SWITCH = [[0.95, 0.05], [0.05, 0.95]]
+CV_ARRAYS = dict(zip(("F", "Q", "H", "R", "x0", "P0"), CV.arrays()))
+BANK_MODELS = [
+    Bad("None", None),
+    Bad("'model'", "model"),
+    Bad("one model", CV),
+    Bad("[]", []),
+    Bad("[model]", [CV]),
+    Bad("[model, 'x']", [CV, "x"]),
+    Bad("[model, None]", [CV, None]),
+    Bad("measurement lengths 2 and 1", [CV, ONE_AXIS]),
+    Bad("a generator", (m for m in [CV, TURNING])),
+]
+
+
+def _matrices(name: str) -> list[Bad]:
+    """The pool of one matrix (or vector) argument of LinearGaussianModel."""
+    base = CV_ARRAYS[name]
+    return _images(base.shape, base)
+
+
+def _tracks(**columns) -> pd.DataFrame:
+    return _df(**{"particle": np.tile([0, 1], 6), **columns})  # two particles, six frames
+
+
+def _run_tracks(frame=None, x=None, particle=None, **kwargs):
+    columns = {
+        k: v for k, v in (("frame", frame), ("x", x), ("particle", particle)) if v is not None
+    }
+    return kf.TypeIdentifier.run_tracks(_tracks(**columns), **{"models": [CV, TURNING], **kwargs})
+
+
+def _imm_update(measurement):
+    imm = kf.IMMEstimator([STRAIGHT, TURNING], SWITCH)
+    imm.update(FRAMES[0])
+    return imm.update(measurement), imm.mu
+
+
+def _identifier_update(measurement):
+    ident = kf.TypeIdentifier([CV, TURNING])
+    ident.update(FRAMES[0])
+    return ident.update(measurement), ident.posterior
+
+
+ENTRIES += [
+    Entry(
+        "LinearGaussianModel",
+        lambda **kw: kf.LinearGaussianModel(**kw).simulate(4, seed=1),
+        dict(CV_ARRAYS),
+        {name: _matrices(name) for name in CV_ARRAYS}
+        | dict(name=[Bad(repr(v), v) for v in (1, b"x", ["x"])]),
+        valid={"name=None", "name=1", "name=b'x'", "name=['x']"},  # (str(name), documented)
+    ),
+    Entry(
+        "LinearGaussianModel.singer",
+        lambda **kw: kf.LinearGaussianModel.singer(**kw).simulate(4, seed=1),
+        dict(dt=1.0, rho=0.8, sigma_a=0.7),
+        dict(
+            dt=_positive_scalars(),
+            rho=_scalars(),
+            sigma_a=_scalars(),
+            ndim=_positive_ints(),
+            measurement_std=_positive_scalars(),
+            x0=_images((6,), np.zeros(6)),
+            P0=_images((6, 6), np.eye(6)),
+        ),
+        valid={"x0=None", "P0=None"},
+    ),
+    Entry(
+        "LinearGaussianModel.constant_velocity",
+        lambda **kw: kf.LinearGaussianModel.constant_velocity(**kw).simulate(4, seed=1),
+        dict(dt=1.0, q=0.5),
+        dict(dt=_positive_scalars(), q=_scalars(), ndim=_positive_ints()),
+    ),
+    Entry(
+        "LinearGaussianModel.markov_velocity",
+        lambda **kw: kf.LinearGaussianModel.markov_velocity(**kw).simulate(4, seed=1),
+        dict(dt=1.0, rho=0.9, sigma=0.5),
+        dict(rho=_scalars(), sigma=_scalars(), measurement_std=_positive_scalars()),
+    ),
+    Entry(
+        "LinearGaussianModel.simulate",
+        lambda **kw: TURNING.simulate(**kw),
+        dict(n_frames=5),
+        dict(
+            n_frames=_positive_ints(),
+            n_trajectories=_positive_ints(),
+            seed=SEEDS,
+            start=_images((6,), np.ones(6)),
+        ),
+        valid={"n_trajectories=None", "start=None", "n_frames=0"},  # (n_frames ≥ 0)
+    ),
+    Entry(
+        "LinearGaussianModel.with_prior",
+        lambda **kw: CV.with_prior(**kw).simulate(4, seed=1),
+        dict(x0=np.zeros(4), P0=np.eye(4)),
+        dict(x0=_images((4,), np.zeros(4)), P0=_images((4, 4), np.eye(4))),
+    ),
+    Entry(
+        "TypeIdentifier",
+        lambda **kw: kf.TypeIdentifier(**kw).run(FRAMES),
+        dict(models=[CV, TURNING]),
+        dict(models=BANK_MODELS, priors=_images((2,), np.array([0.3, 0.7]))),
+        valid={"priors=None"},
+    ),
+    Entry(
+        "TypeIdentifier (Wald)",
+        lambda **kw: kf.TypeIdentifier([CV, TURNING], **kw).run(FRAMES),
+        dict(alpha=0.01, beta=0.02),
+        dict(alpha=_scalars(), beta=_scalars()),
+    ),
+    Entry(
+        "TypeIdentifier.run",
+        lambda **kw: kf.TypeIdentifier([CV, TURNING]).run(**kw),
+        dict(measurements=FRAMES),
+        dict(
+            measurements=_images((20, 2), FRAMES) + _images((3, 20, 2), BATCH, "batch "),
+            return_log_likelihoods=[Bad(repr(v), v, invalid=False) for v in (1, "yes", None)],
+            threads=THREADS,
+        ),
+        valid={"measurements=batch one axis fewer"},
+    ),
+    Entry(
+        "TypeIdentifier.update",
+        _identifier_update,
+        dict(measurement=FRAMES[1]),
+        dict(measurement=_images((2,), FRAMES[1])),
+    ),
+    Entry(
+        "TypeIdentifier.run_tracks",
+        _run_tracks,
+        dict(),
+        dict(
+            frame=_column_pool("frame", _tracks()),
+            x=_column_pool("x", _tracks()),
+            particle=_column_pool("particle", _tracks()),
+            models=BANK_MODELS,
+            columns=[Bad(repr(v), v) for v in ([], ["nope"], "x", [1], ["x", "y", "frame"])],
+            threads=THREADS,
+        ),
+        # frame numbers near 2**63 that follow each other, coordinates near 9e18; particle ids
+        # are labels, any hashable value (the table gives them back)
+        valid={"frame=huge int64", "x=2**63 uint64"}
+        | {
+            f"particle={label}"
+            for label in ("complex", "strings", "bool", "numeric str object", "datetime")
+        }
+        | {"particle=2**63 uint64", "particle=huge int64", "particle=fractions"},
+    ),
+    Entry(
+        "IMMEstimator",
+        lambda **kw: kf.IMMEstimator(**kw).run(FRAMES),
+        dict(models=[STRAIGHT, TURNING], transition=SWITCH),
+        dict(
+            models=BANK_MODELS + [Bad("state lengths 4 and 6", [CV, TURNING])],
+            transition=_images((2, 2), np.array(SWITCH)),
+            mu=_images((2,), np.array([0.3, 0.7])),
+        ),
+        valid={"mu=None"},
+    ),
+    Entry(
+        "IMMEstimator.run",
+        lambda **kw: kf.IMMEstimator([STRAIGHT, TURNING], SWITCH).run(**kw),
+        dict(measurements=FRAMES),
+        dict(
+            measurements=_images((20, 2), FRAMES) + _images((3, 20, 2), BATCH, "batch "),
+            threads=THREADS,
+        ),
+        valid={"measurements=batch one axis fewer"},
+    ),
+    Entry(
+        "IMMEstimator.update",
+        _imm_update,
+        dict(measurement=FRAMES[1]),
+        dict(measurement=_images((2,), FRAMES[1])),
+    ),
+    Entry(
+        "experiments.type_confusion",
+        lambda **kw: experiments.type_confusion(progress=False, **kw).table,
+        dict(n_frames=4, runs=3),
+        dict(
+            models=[Bad(repr(v), v) for v in ("x", [CV, TURNING], {"bank": [CV]})],
+            n_frames=[b for b in _positive_ints() if b.label != "2**62"],
+            runs=[b for b in _positive_ints() if b.label != "2**62"],
+            seed=SEEDS,
+            threads=THREADS,
+        ),
+        valid={"models=None"},
+    ),
+    Entry(
+        "experiments.source_banks",
+        lambda **kw: [m.arrays() for bank in experiments.source_banks(**kw).values() for m in bank],
+        dict(),
+        dict(
+            rho=[Bad(repr(v), v) for v in ((1.0, 0.5), (0.5,), (np.nan, 0.5), "ab", 0.5)],
+            driving_std=_positive_scalars(),
+            measurement_std=_positive_scalars(),
+            ndim=_positive_ints(),
+            dt=_positive_scalars(),
+        ),
+    ),
+]
+
+# ------------------------------------------------------------------------------ trajectory
+SERIES = np.cumsum(np.random.default_rng(3).standard_normal((2, 40)), axis=1)
+TIMES = np.arange(40.0)
+FUZZY = kf.FuzzyFilter(1.0, 0.5, 1.0, 0.5, 0.1)
+FUZZY_VEL = kf.FuzzyFilter(1.0, 0.5, 1.0, 0.5, 0.1, R_vel=1.0)
+SERIES_POOL = _images((2, 40), SERIES)
+TIMES_POOL = _images((40,), TIMES, "times ") + _images((2, 40), TIMES + SERIES * 0, "per series ")
+#: documented: None (t_n = n) and times shared by the series, (n,)
+TIMES_VALID = {"times=times None", "times=per series None", "times=per series one axis fewer"}
+SPREADS = dict(P=1.0, Q=0.5, R=1.0, P_vel=0.5, Q_vel=0.1)
+#: documented: missing samples (NaN) give NaN estimates before a series' first observed one
+SERIES_VALID = {"z=one axis fewer", "z=all nan", "z=nan pixel"}
+
+
+def _outs() -> list[Bad]:
+    def pair(make):
+        return make(), make()
+
+    buffer = np.empty(2 * 40 + 1)
+    read_only = pair(lambda: np.empty((2, 40)))
+    for a in read_only:
+        a.flags.writeable = False
+    shared = np.empty((2, 40))
+    return [
+        Bad("one array", np.empty((2, 40))),
+        Bad("list", [np.empty((2, 40)), np.empty((2, 40))]),
+        Bad("three arrays", pair(lambda: np.empty((2, 40))) + (np.empty((2, 40)),)),
+        Bad("float32", pair(lambda: np.empty((2, 40), np.float32))),
+        Bad("int64", pair(lambda: np.empty((2, 40), np.int64))),
+        Bad("wrong shape", pair(lambda: np.empty((2, 39)))),
+        Bad("transposed", pair(lambda: np.empty((40, 2)).T)),
+        Bad("read-only", read_only),
+        Bad("the same array twice", (shared, shared)),
+        Bad("overlapping", (buffer[:80].reshape(2, 40), buffer[1:81].reshape(2, 40))),
+        Bad("z itself", (SERIES, np.empty((2, 40)))),
+        Bad("lists", ([[0.0] * 40] * 2, [[0.0] * 40] * 2)),
+    ]
+
+
+def _step(z_n=None, t_n=None, velocity=None, filt=None, detector=False):
+    filt = filt or kf.FuzzyFilter(**SPREADS)
+    stream = kf.ChangeDetector(filt) if detector else filt
+    stream.step(SERIES[:, 0], 0.0, **({} if velocity is None else {"velocity": SERIES[:, 0]}))
+    kwargs = {} if velocity is None else {"velocity": velocity}
+    return stream.step(SERIES[:, 1] if z_n is None else z_n, t_n, **kwargs)
+
+
+def _plot(call):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    try:
+        call()
+    finally:
+        plt.close("all")
+
+
+FOUND = kf.ChangeDetector(FUZZY).run(SERIES)
+
+ENTRIES += [
+    Entry(
+        "FuzzyFilter",
+        lambda **kw: kf.FuzzyFilter(**kw).filter(SERIES),
+        dict(SPREADS),
+        dict(
+            P=_positive_scalars(),
+            Q=_positive_scalars(),
+            R=_positive_scalars(),
+            P_vel=_scalars(),
+            Q_vel=_scalars(),
+        ),
+    ),
+    Entry(
+        "KalmanFilterCV (velocity measured)",
+        lambda **kw: kf.KalmanFilterCV(**kw).filter(SERIES, velocity=SERIES),
+        dict(SPREADS, R_vel=1.0),
+        dict(P_vel=_scalars(), R_vel=_positive_scalars()),
+    ),
+    Entry(
+        "FuzzyFilter.filter",
+        lambda **kw: FUZZY.filter(**kw),
+        dict(z=SERIES),
+        dict(z=SERIES_POOL, times=TIMES_POOL, out=_outs(), threads=THREADS),
+        allow_nan=True,  # (SERIES_VALID)
+        valid=SERIES_VALID | TIMES_VALID | {"out=None"},
+    ),
+    Entry(
+        "FuzzyFilter.filter (velocity measured)",
+        lambda **kw: FUZZY_VEL.filter(**kw),
+        dict(z=SERIES, velocity=SERIES),
+        dict(velocity=_images((2, 40), SERIES)),
+        allow_nan=True,
+        valid={"velocity=nan pixel", "velocity=all nan"},
+    ),
+    Entry(
+        "FuzzyFilter.gains",
+        lambda **kw: FUZZY.gains(**kw),
+        dict(n=40),
+        dict(n=_positive_ints(), times=_images((40,), TIMES)),
+        valid={"times=None"},
+    ),
+    Entry(
+        "FuzzyFilter.step",
+        _step,
+        dict(),
+        dict(z_n=_images((2,), SERIES[:, 1]), t_n=_scalars()),
+        allow_nan=True,  # (a missing sample at a series' start: NaN, documented)
+        valid={"z_n=None", "t_n=None", "z_n=nan pixel", "z_n=all nan"},
+    ),
+    Entry(
+        "FuzzyFilter.step (velocity measured)",
+        lambda **kw: _step(filt=kf.FuzzyFilter(**SPREADS, R_vel=1.0), **kw),
+        dict(velocity=SERIES[:, 1]),
+        dict(velocity=_images((2,), SERIES[:, 1])),
+        allow_nan=True,
+        valid={"velocity=nan pixel", "velocity=all nan"},
+    ),
+    Entry(
+        "ChangeDetector",
+        lambda **kw: kf.ChangeDetector(**kw).run(SERIES),
+        dict(filter=FUZZY),
+        dict(
+            filter=[
+                Bad("None", None),
+                Bad("the class", kf.FuzzyFilter),
+                Bad("a model", CV),
+                Bad("'fuzzy'", "fuzzy"),
+            ],
+            method=_choices("cusum"),
+            confidence=_scalars(),
+            window=_positive_ints(),
+            drift=_positive_scalars(),
+        ),
+        allow_nan=True,  # (the statistic is NaN where no test was made: documented)
+        valid={"method=None", "confidence=None"},
+    ),
+    Entry(
+        "ChangeDetector.run",
+        lambda **kw: kf.ChangeDetector(FUZZY, "chi2").run(**kw),
+        dict(z=SERIES),
+        dict(z=SERIES_POOL, times=TIMES_POOL, threads=THREADS),
+        allow_nan=True,
+        valid=SERIES_VALID | TIMES_VALID,
+    ),
+    Entry(
+        "ChangeDetector.step",
+        lambda **kw: _step(detector=True, **kw),
+        dict(),
+        dict(z_n=_images((2,), SERIES[:, 1]), t_n=_scalars()),
+        allow_nan=True,
+        valid={"z_n=None", "t_n=None", "z_n=nan pixel", "z_n=all nan"},
+    ),
+    Entry(
+        "effective_memory",
+        kf.effective_memory,
+        dict(gains=FUZZY.gains(30)),
+        dict(
+            gains=_images((30, 2), FUZZY.gains(30)),
+            level=_positive_scalars(),
+            tau=_positive_scalars(),
+        ),
+        valid={"gains=one axis fewer", "gains=scalar"},  # (a pair (α, β), a number α)
+    ),
+    Entry(
+        "trajectory.plot_gain_comparison",
+        lambda **kw: _plot(lambda: trajectory.plot_gain_comparison(**kw)),
+        dict(figure=1, n=5),
+        dict(figure=_ints(), n=[b for b in _positive_ints() if b.label != "2**62"]),
+    ),
+    Entry(
+        "trajectory.plot_change_points",
+        lambda **kw: _plot(lambda: trajectory.plot_change_points(**kw)),
+        dict(z=SERIES, found=FOUND),
+        dict(
+            z=SERIES_POOL,
+            found=[
+                Bad("None", None),
+                Bad("'found'", "found"),
+                Bad("estimates", FUZZY.filter(SERIES)),
+            ],
+            series=_ints(),
+            times=_images((40,), TIMES),
+        ),
+        valid=SERIES_VALID | {"times=None", "series=0"},
     ),
 ]
 

@@ -88,12 +88,23 @@ def _flat(args):
             yield a
 
 
+def _dtype_without_datetimes(code: Any, *args: Any) -> np.dtype:
+    """numpy.dtype for the unpickler, refusing datetime codes: NumPy 2.4 segfaults when the
+    state of a float64 dtype is set on a datetime one (a pickled array whose 'f8' became
+    'M8'), whatever object holds the array — a NumPy defect, not one of kalmanfield's."""
+    if isinstance(code, str) and code.lstrip("<>=|")[:1] in ("M", "m"):
+        raise pickle.UnpicklingError(f"the harness does not rebuild the dtype {code!r}")
+    return np.dtype(code, *args)
+
+
 class RestrictedUnpickler(pickle.Unpickler):
     ALLOWED = ("numpy", "builtins", "copyreg", "_codecs", "kalmanfield")
 
     def find_class(self, module: str, name: str) -> Any:
         if module.split(".")[0] not in self.ALLOWED:
             raise pickle.UnpicklingError(f"the harness does not resolve {module}.{name}")
+        if module.split(".")[0] == "numpy" and name == "dtype":
+            return _dtype_without_datetimes
         found = super().find_class(module, name)
         if module in ("kalmanfield.rowfilter.scalar", "kalmanfield.rowfilter.vector"):
             if name == "_rebuild":
@@ -479,4 +490,128 @@ def test_corrupt_numbers_inside_the_tracker_state_bytes():
     """Special words (NaN, inf, 2**63 − 1, −1, …) and flips inside the Rust state bytes: the
     loader must refuse every one it cannot continue from (issue 49 item 2)."""
     failures = isolated("suite_tracker_state_bytes")
+    assert not failures, report(failures)
+
+
+# ------------------------------------------------------------------------------ filter banks
+CV = kf.LinearGaussianModel.constant_velocity(1.0, 0.5, 2, 0.5, name="cv")
+STRAIGHT = kf.LinearGaussianModel.singer(1.0, 0.0, 0.0, 2, 0.5, name="straight")
+TURNING = kf.LinearGaussianModel.singer(1.0, 0.8, 0.7, 2, 0.5, name="turning")
+BANK_FRAMES = TURNING.simulate(12, 3, seed=5, start=[0, 1, 0, 0, 0.5, 0])[1]  # (3, 12, 2)
+BANKS = {
+    "identifier": lambda: kf.TypeIdentifier([CV, TURNING], priors=[0.4, 0.6]),
+    "identifier wald": lambda: kf.TypeIdentifier([CV, TURNING], alpha=0.01, beta=0.02),
+    "imm": lambda: kf.IMMEstimator([STRAIGHT, TURNING], [[0.9, 0.1], [0.2, 0.8]]),
+}
+
+
+def step_bank(bank) -> list[str]:
+    """Four more frames of the three trajectories; the outputs finite, the probabilities
+    probabilities."""
+    out = bank.run(BANK_FRAMES[:, 8:])
+    probabilities = bank.mu if isinstance(bank, kf.IMMEstimator) else bank.posterior
+    problems = bad_leaves(out) + bad_leaves(probabilities)
+    if isinstance(bank, kf.TypeIdentifier):
+        problems += bad_leaves(bank.log_likelihoods)
+    if not np.allclose(np.sum(probabilities, axis=-1), 1.0) or (probabilities < 0).any():
+        problems.append(f"probabilities {probabilities} do not sum to 1")
+    return problems
+
+
+def suite_bank(name: str, inside: bool) -> list[str]:
+    """Corruptions outside the Rust state bytes (`inside` False: the pickle's opcodes, the
+    models, priors and settings) or inside them."""
+    bank = BANKS[name]()
+    bank.run(BANK_FRAMES[:, :8])
+    assert not step_bank(pickle.loads(pickle.dumps(bank)))
+    blob = pickle.dumps(bank)
+    return corrupt_around(blob, bank._core.state_bytes(), step_bank, 20 + len(name), inside)
+
+
+def corrupt_around(blob: bytes, state: bytes, step, salt: int, inside: bool) -> list[str]:
+    """run_cases on the bytes of `state` within `blob` (`inside`), or on the rest of it."""
+    lo, hi = _state_range(blob, state)
+    kind = type(load(blob))
+    if inside:
+        return run_cases(blob, step, kind, salt + 100, lo, hi)
+    g = rng(salt)
+    failures = []
+    for case in range(CASES):
+        if g.random() < lo / (len(blob) - (hi - lo)):
+            bad = corrupt(blob, g, 0, lo)
+        else:
+            bad = corrupt(blob, g, hi, len(blob))
+        print(f"CASE {case}", flush=True)
+        problem = outcome(bad, step, kind)
+        if problem:
+            failures.append(f"case {case} (seed {salt}): {problem}")
+    return failures
+
+
+SUITES += [("suite_bank", name, inside) for name in BANKS for inside in (False, True)]
+
+
+# ------------------------------------------------------------------------------ trajectories
+SAMPLES = np.cumsum(np.random.default_rng(6).standard_normal((3, 20)), axis=1)
+TRAJECTORY_STREAMS = {
+    "fuzzy": lambda: kf.FuzzyFilter(1.0, 0.5, 1.0, 0.5, 0.1),
+    "fuzzy one series": lambda: kf.FuzzyFilter(2.0, 0.5, 1.0),
+    "kalman velocity measured": lambda: kf.KalmanFilterCV(1.0, 0.5, 1.0, 0.5, 0.1, R_vel=1.0),
+    "detector cusum": lambda: kf.ChangeDetector(kf.FuzzyFilter(1.0, 0.5, 1.0, 0.5, 0.1)),
+    "detector chi2": lambda: kf.ChangeDetector(kf.KalmanFilterCV(1.0, 0.5, 1.0), "chi2"),
+    "detector fuzzy": lambda: kf.ChangeDetector(kf.FuzzyFilter(1.0, 0.5, 1.0, 0.5), "fuzzy"),
+}
+
+
+def _trajectory_step(stream, k: int, series: int):
+    """One step of `stream` (a filter or a detector) at sample k of the first `series` rows
+    of SAMPLES (a number when `series` is 0: a one-series stream)."""
+    rows = slice(0, max(series, 1))
+    z, velocity = SAMPLES[rows, k], SAMPLES[rows, k] - SAMPLES[rows, k - 1]
+    if series == 0:
+        z, velocity = z[0], velocity[0]
+    filt = stream.filter if isinstance(stream, kf.ChangeDetector) else stream
+    return stream.step(z, **({"velocity": velocity} if filt.measures_velocity else {}))
+
+
+def step_trajectory(stream) -> list[str]:
+    """Five more samples of as many series as the stream follows (times continue from its
+    last one); the estimates finite."""
+    series = 0 if stream._scalar else stream._bank.series
+    problems = []
+    for k in range(12, 17):
+        out = _trajectory_step(stream, k, series)
+        problems += bad_leaves([np.asarray(v, float) for v in out])
+    return problems
+
+
+def suite_trajectory(name: str, inside: bool) -> list[str]:
+    """Corruptions of the stream's state values (`inside`: the float64 array the Rust bank
+    saves) or of the rest of the pickle (opcodes, spreads, settings, flags, last time)."""
+    stream = TRAJECTORY_STREAMS[name]()
+    for k in range(1, 12):
+        _trajectory_step(stream, k, 0 if name == "fuzzy one series" else 3)
+    assert not step_trajectory(pickle.loads(pickle.dumps(stream)))
+    blob, state = pickle.dumps(stream), stream._bank.state().tobytes()
+    return corrupt_around(blob, state, step_trajectory, 60 + len(name), inside)
+
+
+SUITES += [
+    ("suite_trajectory", name, inside) for name in TRAJECTORY_STREAMS for inside in (False, True)
+]
+
+
+STREAM_SUITES = [("suite_bank", n) for n in BANKS] + [
+    ("suite_trajectory", n) for n in TRAJECTORY_STREAMS
+]
+
+
+@pytest.mark.parametrize("inside", [False, True], ids=["around the state", "inside the state"])
+@pytest.mark.parametrize(("suite", "name"), STREAM_SUITES)
+def test_corrupt_bank_and_trajectory_pickles(suite, name, inside):
+    """TypeIdentifier, IMMEstimator (pickled Rust state bytes), FuzzyFilter, KalmanFilterCV
+    and ChangeDetector (pickled state values; k series or one) mid-stream: corruptions of the
+    Rust state (`inside`) or of the rest of the pickle (opcodes, models, priors, settings,
+    flags, last time)."""
+    failures = isolated(suite, name, inside)
     assert not failures, report(failures)

@@ -187,3 +187,39 @@ def test_corrupted_pickles_are_errors():
     blob["settings"] = dict(blob["settings"], window=5)
     with pytest.raises(ValueError, match="saved state"):
         pickle.loads(pickle.dumps(d)).__setstate__(blob)
+
+
+def test_plot_arguments_are_checked():
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from kalmanfield.trajectory import plot_change_points, plot_gain_comparison
+
+    z = np.r_[np.zeros(30), np.full(30, 10.0)]
+    batch = np.stack([z, -z])
+    found = ChangeDetector(FuzzyFilter(1.0, 0.1, 0.2)).run(batch)
+    fig, ax = plt.subplots()
+    try:
+        with pytest.raises(TypeError, match="found"):
+            plot_change_points(batch, FuzzyFilter(1.0, 0.1, 0.2).filter(batch), ax=ax)
+        with pytest.raises(ValueError, match="shape"):
+            plot_change_points(z, found, ax=ax)
+        with pytest.raises(ValueError, match="below 2"):
+            plot_change_points(batch, found, series=2, ax=ax)
+        with pytest.raises(ValueError, match="non-negative"):
+            plot_change_points(batch, found, series=-1, ax=ax)
+        with pytest.raises(TypeError, match="real numbers"):
+            plot_change_points(batch, found, times=np.arange(60).astype(str), ax=ax)
+        with pytest.raises(ValueError, match="times"):
+            plot_change_points(batch, found, times=np.arange(59.0), ax=ax)
+        with pytest.raises(ValueError, match="figure"):
+            plot_gain_comparison(True)
+        # the valid calls draw the chosen series at the given times (per series too)
+        t = np.stack([np.arange(60.0), 2 * np.arange(60.0)])
+        plot_change_points(batch, found, times=t, series=1, ax=ax)
+        x, y = ax.lines[0].get_data()
+        np.testing.assert_array_equal(x, t[1])
+        np.testing.assert_array_equal(y, -z)
+    finally:
+        plt.close("all")

@@ -14,11 +14,12 @@ from .._validation import (
     SeedLike,
     positive_float,
     positive_int,
-    real_number,
+    real_array,
     resolve_seed,
 )
 from ..filterbank import LinearGaussianModel, TypeIdentifier
 from ..filterbank._batch import bank_models
+from ..filterbank.model import check_motion_memory
 
 #: labels of the two banks of :func:`source_banks`
 VELOCITY, ACCELERATION = "velocity (7)", "velocity + acceleration (8)"
@@ -64,7 +65,9 @@ def source_banks(
     Raises
     ------
     ValueError
-        A ρ_i outside (−1, 1), or a non-positive std, `ndim` or `dt`.
+        Fewer than two ρ_i, a ρ_i outside (−1, 1), or a non-positive std, `ndim` or `dt`.
+    MemoryError
+        An `ndim` whose state matrices would not fit in memory.
 
     Notes
     -----
@@ -80,9 +83,13 @@ def source_banks(
     """
     sz = positive_float(measurement_std, "measurement_std")
     w = positive_float(driving_std, "driving_std")
+    coefficients = real_array(rho, "rho")
+    if coefficients.ndim != 1 or coefficients.size < 2:
+        raise ValueError(f"rho must hold one coefficient per type, at least two, got {rho!r}")
+    ndim = positive_int(ndim, "ndim")
+    check_motion_memory(3, ndim)
     banks: dict[str, list[LinearGaussianModel]] = {VELOCITY: [], ACCELERATION: []}
-    for r in rho:
-        r = real_number(r, "rho")
+    for r in coefficients.tolist():
         if not -1 < r < 1:
             raise ValueError(f"rho must lie in (-1, 1), got {r}")
         sigma = w / np.sqrt(1.0 - r * r)

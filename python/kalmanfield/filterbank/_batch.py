@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -64,7 +65,20 @@ def _checked(z: np.ndarray, m: int) -> np.ndarray:
         )
     if z.shape[0] == 0:
         raise ValueError("measurements need at least one trajectory")
+    if z.shape[1] == 0:
+        raise ValueError("measurements need at least one frame")
     return np.ascontiguousarray(z)
+
+
+def restored_batched(batched: Any, n_traj: int) -> bool | None:
+    """The pickled batch flag of a stream following `n_traj` trajectories (None: not started,
+    False: one trajectory, True: a batch); ValueError when it does not fit the state."""
+    fits = {None: n_traj == 0, False: n_traj == 1, True: n_traj >= 1}
+    if not (batched is None or isinstance(batched, bool)) or not fits[batched]:
+        raise ValueError(
+            f"the pickled stream is altered: batch flag {batched!r} for {n_traj} trajectories"
+        )
+    return batched
 
 
 def stream_shape(batched: bool, current: bool | None, b: int, n_traj: int) -> None:

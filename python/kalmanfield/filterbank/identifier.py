@@ -10,8 +10,8 @@ import numpy.typing as npt
 import pandas as pd
 
 from .. import _core
-from .._validation import probability, real_array, thread_count
-from ._batch import bank_models, frame_batch, run_batch, stream_shape
+from .._validation import pickled_fields, probability, real_array, thread_count
+from ._batch import bank_models, frame_batch, restored_batched, run_batch, stream_shape
 from .model import LinearGaussianModel
 from .tracks import tracks_to_batch
 
@@ -371,12 +371,14 @@ class TypeIdentifier:
         }
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self._models = list(state["models"])
-        self._priors = list(state["priors"])
-        self._errors = tuple(state["errors"])
-        self._batched = state["batched"]
-        self._core = self._new_core()
-        self._core.load_state(state["state"])
+        # through the constructor's checks: a pickle is input like any other
+        fields = pickled_fields(state, "TypeIdentifier", "models", "priors", "errors", "batched")
+        models, priors, errors, batched = fields
+        if not isinstance(errors, tuple) or len(errors) != 2:
+            raise ValueError("the pickled TypeIdentifier is altered: errors is not (alpha, beta)")
+        self.__init__(models, priors, *errors)  # type: ignore[misc]
+        self._core.load_state(pickled_fields(state, "TypeIdentifier", "state")[0])
+        self._batched = restored_batched(batched, self._core.n_trajectories)
 
     def __repr__(self) -> str:
         rule = "wald" if self.sequential else "max_posterior"

@@ -9,8 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _core
-from .._validation import real_array, thread_count
-from ._batch import bank_models, frame_batch, run_batch, stream_shape
+from .._validation import pickled_fields, real_array, thread_count
+from ._batch import bank_models, frame_batch, restored_batched, run_batch, stream_shape
 from .identifier import _priors
 from .model import LinearGaussianModel
 
@@ -241,12 +241,12 @@ class IMMEstimator:
         }
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self._models = list(state["models"])
-        self._transition = np.asarray(state["transition"])
-        self._mu = list(state["mu"])
-        self._batched = state["batched"]
-        self._core = self._new_core()
-        self._core.load_state(state["state"])
+        # through the constructor's checks: a pickle is input like any other
+        fields = pickled_fields(state, "IMMEstimator", "models", "transition", "mu", "batched")
+        models, transition, mu, batched = fields
+        self.__init__(models, transition, mu)  # type: ignore[misc]
+        self._core.load_state(pickled_fields(state, "IMMEstimator", "state")[0])
+        self._batched = restored_batched(batched, self._core.n_trajectories)
 
     def __repr__(self) -> str:
         names = [m.name for m in self._models]

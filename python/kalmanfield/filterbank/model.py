@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 import numpy as np
@@ -10,7 +11,9 @@ import numpy.typing as npt
 from .. import _core
 from .._validation import (
     SeedLike,
+    check_memory,
     nonnegative_int,
+    pickled_fields,
     positive_float,
     positive_int,
     real_array,
@@ -32,13 +35,19 @@ def _matrix(value: npt.ArrayLike, name: str, ndim: int) -> np.ndarray:
     return a
 
 
-def _axes(dt: float, ndim: int, measurement_std: float) -> tuple[float, int, float]:
-    """The checked (dt, ndim, measurement_std) of a motion model."""
-    return (
-        positive_float(dt, "dt"),
-        positive_int(ndim, "ndim"),
-        positive_float(measurement_std, "measurement_std"),
-    )
+def _axes(dt: float, ndim: int, measurement_std: float, per_axis: int) -> tuple[float, int, float]:
+    """The checked (dt, ndim, measurement_std) of a motion model with `per_axis` state
+    components per axis."""
+    ndim = positive_int(ndim, "ndim")
+    check_motion_memory(per_axis, ndim)
+    return positive_float(dt, "dt"), ndim, positive_float(measurement_std, "measurement_std")
+
+
+def check_motion_memory(per_axis: int, ndim: int) -> None:
+    """MemoryError when the n × n matrices (n = per_axis · ndim) of a motion model and its
+    prior would exceed the memory this process may take: the Rust builders would abort."""
+    n = per_axis * ndim
+    check_memory((n, n), np.dtype(np.float64), copies=8)
 
 
 def _diffuse_prior(per_axis: list[float], ndim: int) -> tuple[np.ndarray, np.ndarray]:
@@ -164,6 +173,8 @@ class LinearGaussianModel:
         ValueError
             A non-positive `dt`, `ndim` or `measurement_std`, a negative or non-finite `q`,
             or a prior of the wrong shape.
+        MemoryError
+            An `ndim` whose state matrices would not fit in memory.
 
         Examples
         --------
@@ -173,7 +184,7 @@ class LinearGaussianModel:
         array([[1., 1.],
                [0., 1.]])
         """
-        dt, ndim, sz = _axes(dt, ndim, measurement_std)
+        dt, ndim, sz = _axes(dt, ndim, measurement_std, 2)
         f, qm, h, r = _core.kalman_constant_velocity(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt], ndim)
         return cls._built(f, qm, h, r, x0, P0, default, name)
@@ -224,6 +235,8 @@ class LinearGaussianModel:
         ValueError
             A non-positive `dt`, `ndim` or `measurement_std`, a negative or non-finite `q`,
             or a prior of the wrong shape.
+        MemoryError
+            An `ndim` whose state matrices would not fit in memory.
 
         Examples
         --------
@@ -232,7 +245,7 @@ class LinearGaussianModel:
         >>> m.state_dim, m.measurement_dim
         (6, 2)
         """
-        dt, ndim, sz = _axes(dt, ndim, measurement_std)
+        dt, ndim, sz = _axes(dt, ndim, measurement_std, 3)
         f, qm, h, r = _core.kalman_constant_acceleration(dt, real_number(q, "q"), ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt, DIFFUSE * sz / dt**2], ndim)
         return cls._built(f, qm, h, r, x0, P0, default, name)
@@ -286,6 +299,8 @@ class LinearGaussianModel:
         ValueError
             A non-positive `dt`, `ndim` or `measurement_std`, `rho` outside [−1, 1], a
             negative or non-finite `sigma_a`, or a prior of the wrong shape.
+        MemoryError
+            An `ndim` whose state matrices would not fit in memory.
 
         Examples
         --------
@@ -296,7 +311,7 @@ class LinearGaussianModel:
                [0. , 1. , 1. ],
                [0. , 0. , 0.5]])
         """
-        dt, ndim, sz = _axes(dt, ndim, measurement_std)
+        dt, ndim, sz = _axes(dt, ndim, measurement_std, 3)
         rho, sigma_a = real_number(rho, "rho"), real_number(sigma_a, "sigma_a")
         f, qm, h, r = _core.kalman_singer(dt, rho, sigma_a, ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, DIFFUSE * sz / dt, sigma_a], ndim)
@@ -351,6 +366,8 @@ class LinearGaussianModel:
         ValueError
             A non-positive `dt`, `ndim` or `measurement_std`, `rho` outside [−1, 1], a
             negative or non-finite `sigma`, or a prior of the wrong shape.
+        MemoryError
+            An `ndim` whose state matrices would not fit in memory.
 
         Examples
         --------
@@ -360,7 +377,7 @@ class LinearGaussianModel:
         array([[0.  , 0.  ],
                [0.  , 0.76]])
         """
-        dt, ndim, sz = _axes(dt, ndim, measurement_std)
+        dt, ndim, sz = _axes(dt, ndim, measurement_std, 2)
         rho, sigma = real_number(rho, "rho"), real_number(sigma, "sigma")
         f, qm, h, r = _core.kalman_markov_velocity(dt, rho, sigma, ndim, sz)
         default = _diffuse_prior([DIFFUSE * sz, sigma], ndim)
@@ -498,8 +515,8 @@ class LinearGaussianModel:
         Raises
         ------
         ValueError
-            A negative `n_frames`, a non-positive `n_trajectories`, a bad seed, or a
-            `start` that is not n finite values.
+            A negative `n_frames`, a non-positive `n_trajectories`, a bad seed, a `start`
+            that is not n finite values, or states beyond the range of float64.
 
         Notes
         -----
@@ -530,10 +547,16 @@ class LinearGaussianModel:
                 raise ValueError(f"start must be {n} finite values, got {first}")
             x = np.tile(first, (b, 1))
         states, z = np.empty((b, frames, n)), np.empty((b, frames, m))
-        for t in range(frames):
-            x = x @ f.T + rng.standard_normal((b, n)) @ roots[1].T
-            states[:, t] = x
-            z[:, t] = x @ h.T + rng.standard_normal((b, m)) @ roots[2].T
+        with np.errstate(over="ignore", invalid="ignore"):  # (an overflow raises below)
+            for t in range(frames):
+                x = x @ f.T + rng.standard_normal((b, n)) @ roots[1].T
+                states[:, t] = x
+                z[:, t] = x @ h.T + rng.standard_normal((b, m)) @ roots[2].T
+        if not (np.isfinite(states).all() and np.isfinite(z).all()):
+            raise ValueError(
+                "the simulation overflows float64: the model's matrices, its prior or `start` "
+                "are too large for the number of frames"
+            )
         if n_trajectories is None:
             return states[0], z[0]
         return states, z
@@ -548,16 +571,33 @@ class LinearGaussianModel:
     __hash__ = None  # type: ignore[assignment]
 
     def __getstate__(self) -> dict[str, Any]:
-        return {"arrays": [a.copy() for a in self._arrays], "name": self.name}
+        arrays = [a.copy() for a in self._arrays]
+        return {"arrays": arrays, "name": self.name, "digest": _digest(arrays)}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(*state["arrays"], name=state["name"])  # type: ignore[misc]
+        arrays, name = pickled_fields(state, "LinearGaussianModel", "arrays", "name")
+        # a valid but altered matrix (an entry of F grown to 1e209) passes the constructor's
+        # checks and overflows frames later: the digest refuses it now (pickles made before
+        # the digest existed have none)
+        if "digest" in state and state["digest"] != _digest(arrays):
+            raise ValueError("the pickled LinearGaussianModel is altered: its matrices changed")
+        self.__init__(*arrays, name=name)  # type: ignore[misc]
 
     def __repr__(self) -> str:
         return (
             f"LinearGaussianModel(name={self.name!r}, state_dim={self.state_dim}, "
             f"measurement_dim={self.measurement_dim})"
         )
+
+
+def _digest(arrays: Any) -> str:
+    """A BLAKE2 digest of the model's matrices (shapes, dtypes and values)."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.asarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
 
 
 def _root(cov: np.ndarray) -> np.ndarray:

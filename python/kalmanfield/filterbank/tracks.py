@@ -9,6 +9,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from .._validation import real_array
+
 
 def tracks_to_batch(
     tracks: pd.DataFrame, columns: Sequence[str]
@@ -26,6 +28,8 @@ def tracks_to_batch(
     frame = tracks["frame"].to_numpy()
     if not np.issubdtype(frame.dtype, np.number) or not np.all(np.mod(frame, 1) == 0):
         raise ValueError("the frame column must hold integers")
+    if frame.dtype.kind in "uf" and not np.all(np.abs(frame) < 2**63):
+        raise ValueError("the frame numbers must lie within ±2**63 (int64)")
     data = tracks[["particle", "frame", *columns]].copy()
     data["frame"] = data["frame"].astype(np.int64)
     if data.duplicated(["particle", "frame"]).any():
@@ -36,7 +40,7 @@ def tracks_to_batch(
     offset = data["frame"].to_numpy() - first
     span = int(offset.max()) + 1
     z = np.full((len(particles), span, len(columns)), np.nan)
-    values = data[columns].to_numpy(dtype=float)
+    values = np.column_stack([real_array(data[c].to_numpy(), f"tracks[{c!r}]") for c in columns])
     z[particle_codes, offset] = values
     info = data.groupby(particle_codes).agg(
         first_frame=("frame", "min"), last_frame=("frame", "max"), n_observed=("frame", "size")

@@ -112,3 +112,16 @@ def output_pair(out: Any, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if np.may_share_memory(out[0], out[1]):
         raise ValueError("the two out arrays share memory")
     return out[0], out[1]
+
+
+def restored_stream(bank: Any, stream: Any) -> tuple[Any, bool, float]:
+    """(bank, one-series flag, last time) of a pickled stream (state values, flag, last
+    time), its state loaded into `bank` (a new ``_core`` FilterBank or DetectorBank, whose
+    loader checks the numbers); ValueError when the parts of the pickle disagree."""
+    values, scalar, t_last = stream
+    bank.load_state(np.asarray(values, dtype=np.float64))
+    if not isinstance(scalar, bool) or (scalar and bank.series != 1):
+        raise ValueError("the pickled stream is altered: a one-series flag of another stream")
+    if bank.last_time is None or t_last != bank.last_time:
+        raise ValueError("the pickled stream is altered: its last time is not its state's")
+    return bank, scalar, float(t_last)

@@ -12,8 +12,16 @@ import numpy.typing as npt
 import pandas as pd
 
 from .. import _core
-from .._validation import positive_float, positive_int, probability, thread_count
-from ._inputs import as_batch, next_time, series_array, step_samples, times_array, velocity_array
+from .._validation import pickled_fields, positive_float, positive_int, probability, thread_count
+from ._inputs import (
+    as_batch,
+    next_time,
+    restored_stream,
+    series_array,
+    step_samples,
+    times_array,
+    velocity_array,
+)
 from .motion_filter import MotionFilter
 
 #: the tests of :class:`ChangeDetector`
@@ -348,12 +356,14 @@ class ChangeDetector:
         return {"filter": self._filter, "settings": self._settings, "stream": stream}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["filter"], **state["settings"])  # type: ignore[misc]
-        if state["stream"] is not None:
-            values, scalar, t_last = state["stream"]
+        names = ("filter", "settings", "stream")
+        filt, settings, stream = pickled_fields(state, "ChangeDetector", *names)
+        if not isinstance(settings, dict):
+            raise ValueError("the pickled ChangeDetector is altered: its settings are no dict")
+        self.__init__(filt, **settings)  # type: ignore[misc]
+        if stream is not None:
             bank = _core.DetectorBank(self._filter._model, self._config, 1)
-            bank.load_state(np.asarray(values, dtype=np.float64))
-            self._bank, self._scalar, self._t_last = bank, scalar, t_last
+            self._bank, self._scalar, self._t_last = restored_stream(bank, stream)
 
     def __repr__(self) -> str:
         s = self._settings

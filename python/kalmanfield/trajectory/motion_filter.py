@@ -9,11 +9,12 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _core
-from .._validation import positive_int, real_value, thread_count
+from .._validation import pickled_fields, positive_int, real_value, thread_count
 from ._inputs import (
     as_batch,
     next_time,
     output_pair,
+    restored_stream,
     series_array,
     step_samples,
     times_array,
@@ -308,12 +309,11 @@ class MotionFilter:
         return {"spreads": self._spreads, "stream": stream}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(*state["spreads"])  # type: ignore[misc]
-        if state["stream"] is not None:
-            values, scalar, t_last = state["stream"]
+        spreads, stream = pickled_fields(state, type(self).__name__, "spreads", "stream")
+        self.__init__(*spreads)  # type: ignore[misc]
+        if stream is not None:
             bank = _core.FilterBank(self._model, 1)
-            bank.load_state(np.asarray(values, dtype=np.float64))
-            self._bank, self._scalar, self._t_last = bank, scalar, t_last
+            self._bank, self._scalar, self._t_last = restored_stream(bank, stream)
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v:g}" for k, v in self.spreads.items() if v is not None)

@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .._validation import nonnegative_int
+from ._inputs import series_array, times_array
 from .change_detector import ChangePoints
 from .fuzzy_filter import FuzzyFilter
 from .kalman_filter import KalmanFilterCV
@@ -117,7 +119,7 @@ def plot_gain_comparison(figure: int = 1, n: int = 15) -> Any:
     2
     >>> plt.close(fig)
     """
-    if figure not in SOURCE_FIGURES:
+    if isinstance(figure, (bool, np.bool_)) or figure not in SOURCE_FIGURES:
         raise ValueError(f"figure must be 1 or 2, got {figure!r}")
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4), sharey=True)
@@ -146,7 +148,7 @@ def plot_change_points(
     found : ChangePoints
         What :meth:`ChangeDetector.run` returned for them.
     times : array-like, optional
-        The samples' times, (n,) (default 0, 1, …).
+        The samples' times, (n,) or shaped like `z` (default 0, 1, …).
     series : int, optional
         Which series of a batch to draw (default 0).
     ax : matplotlib.axes.Axes, optional
@@ -156,6 +158,13 @@ def plot_change_points(
     -------
     matplotlib.axes.Axes
         The axes drawn on.
+
+    Raises
+    ------
+    ValueError
+        `z`, `times` or `series` that do not match the samples `found` was computed on.
+    TypeError
+        `found` not a ChangePoints; non-numeric `z` or `times`.
 
     Examples
     --------
@@ -171,11 +180,27 @@ def plot_change_points(
     >>> ax = plot_change_points(z, found, ax=ax)
     >>> plt.close(fig)
     """
+    if not isinstance(found, ChangePoints):
+        kind = type(found).__name__
+        raise TypeError(f"found must be what ChangeDetector.run returned, got {kind}")
+    samples = series_array(z)
+    if samples.shape != found.alarm.shape:
+        raise ValueError(
+            f"z has the shape {samples.shape}, found was computed on {found.alarm.shape}"
+        )
+    series = nonnegative_int(series, "series")
+    rows = samples.shape[0] if samples.ndim == 2 else 1
+    if series >= rows:
+        raise ValueError(f"series must be below {rows}, the number of series, got {series}")
+    pick = (lambda a: a) if samples.ndim == 1 else (lambda a: a[series])
+    zz = pick(samples)
+    given = times_array(times, samples.shape)
+    if given is None:
+        t = np.arange(zz.size, dtype=float)
+    else:
+        t = given if given.ndim == 1 else given[series]
     plt = _pyplot()
     ax = ax if ax is not None else plt.gca()
-    zz = np.atleast_2d(np.asarray(z, dtype=float))[series]
-    pick = (lambda a: a) if found.alarm.ndim == 1 else (lambda a: a[series])
-    t = np.arange(zz.size) if times is None else np.asarray(times, dtype=float)
     ax.plot(t, zz, ".", color="0.5", ms=3, label="samples")
     ax.plot(t, pick(found.position), "-", color="C0", label="estimate")
     for k in np.flatnonzero(pick(found.alarm)):

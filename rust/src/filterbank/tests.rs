@@ -116,6 +116,45 @@ fn frame_by_frame_and_a_restored_state_continue_exactly() {
     assert!(whole.load_state(&whole.state_bytes()[..40]).is_err());
 }
 
+/// `bytes` with word `word` (8 bytes) replaced by `v`.
+fn altered(bytes: &[u8], word: usize, v: f64) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    out[word * 8..][..8].copy_from_slice(&v.to_le_bytes());
+    out
+}
+
+#[test]
+fn altered_numbers_in_a_saved_state_are_errors() {
+    let (n_traj, n_frames) = (4, 6);
+    let z = measurements(n_traj, n_frames, 0.0, 3);
+    let fresh = || TypeIdentifier::new(bank(), &[0.2, 0.3, 0.5], None).unwrap();
+    let mut ident = fresh();
+    ident.run(&z, n_traj, n_frames, false).unwrap();
+    let bytes = ident.state_bytes();
+    let dims: Vec<usize> = bank().iter().map(|b| b.state_dim()).collect();
+    // words: magic, K, m, the K dims, frame, n_traj; the K shared covariances; then the first
+    // trajectory's means and log-likelihoods
+    let shared = 5 + dims.len();
+    let means = shared + dims.iter().map(|n| n * n).sum::<usize>();
+    let log_lik = means + dims.iter().sum::<usize>();
+    assert!(fresh().load_state(&bytes).is_ok());
+    for (word, v) in [
+        (means, -4e161),          // a mean beyond the measurements' range
+        (means, f64::NAN),        // a NaN mean
+        (shared, -1.0),           // a negative variance
+        (shared + 1, 1e3),        // an asymmetric covariance
+        (log_lik, f64::INFINITY), // an infinite log-likelihood
+    ] {
+        assert!(
+            fresh().load_state(&altered(&bytes, word, v)).is_err(),
+            "word {word} = {v}"
+        );
+    }
+    let mut beyond = bytes.clone();
+    beyond[(shared - 2) * 8..][..8].copy_from_slice(&u64::MAX.to_le_bytes()); // frame count
+    assert!(fresh().load_state(&beyond).is_err());
+}
+
 #[test]
 fn wald_thresholds_and_bad_decision_rules() {
     let two = bank()[..2].to_vec();
@@ -187,6 +226,13 @@ fn an_imm_of_identical_models_is_the_kalman_filter() {
     let restored = restored.as_mut().unwrap();
     restored.load_state(&imm.state_bytes()).unwrap();
     assert_eq!(restored.trajectories, imm.trajectories);
+    // words: magic, K, n, m, frame, n_traj, then the first trajectory's mode probabilities
+    assert!(restored
+        .load_state(&altered(&imm.state_bytes(), 6, 0.95))
+        .is_err());
+    assert!(restored
+        .load_state(&altered(&imm.state_bytes(), 6, -0.1))
+        .is_err());
     let singer = bank_model(kalman::singer(1.0, 0.5, 1.0, 2, 0.5).unwrap());
     assert!(ImmEstimator::new(vec![b.clone(), singer], &transition, &[0.5, 0.5]).is_err());
     assert!(ImmEstimator::new(

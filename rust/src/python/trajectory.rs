@@ -202,6 +202,12 @@ impl PyFilterBank {
         self.inner.series()
     }
 
+    /// Time of the last step (None before the first).
+    #[getter]
+    fn last_time(&self) -> Option<f64> {
+        self.inner.last_time()
+    }
+
     /// The state as a float64 array (for pickling).
     fn state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         PyArray1::from_vec(py, self.inner.save())
@@ -285,6 +291,12 @@ impl PyDetectorBank {
     #[getter]
     fn series(&self) -> usize {
         self.inner.series()
+    }
+
+    /// Time of the last step (None before the first).
+    #[getter]
+    fn last_time(&self) -> Option<f64> {
+        self.inner.last_time()
     }
 
     /// The state as a float64 array (for pickling).

@@ -1,9 +1,9 @@
 //! Filters or detectors of k series fed sample by sample (the streaming objects of the Python
 //! API): one [`Lane`] per series, stepped together, saved as one flat state.
 
-use super::model::MotionModel;
+use super::model::{GainRule, MotionModel};
 use super::series::SeriesFilter;
-use super::state::{Reader, Writer};
+use super::state::{same_time, Reader, Writer};
 use crate::{FieldError, Result};
 
 /// One series' streaming state.
@@ -19,6 +19,8 @@ pub trait Lane: Clone + Sized {
     fn state_len(settings: &Self::Settings) -> usize;
     fn save(&self, w: &mut Writer);
     fn load(r: &mut Reader, settings: &Self::Settings) -> Result<Self>;
+    /// Time of the last sample (NaN before the first).
+    fn last_time(&self) -> f64;
 }
 
 impl Lane for SeriesFilter {
@@ -36,8 +38,11 @@ impl Lane for SeriesFilter {
     fn save(&self, w: &mut Writer) {
         SeriesFilter::save(self, w)
     }
-    fn load(r: &mut Reader, _: &MotionModel) -> Result<Self> {
-        SeriesFilter::load(r)
+    fn load(r: &mut Reader, model: &MotionModel) -> Result<Self> {
+        SeriesFilter::load(r, model.rule == GainRule::Kalman)
+    }
+    fn last_time(&self) -> f64 {
+        SeriesFilter::last_time(self)
     }
 }
 
@@ -62,6 +67,11 @@ impl<L: Lane> Bank<L> {
 
     pub fn series(&self) -> usize {
         self.lanes.len()
+    }
+
+    /// Time of the last step (None before the first); every lane steps at the same times.
+    pub fn last_time(&self) -> Option<f64> {
+        self.lanes.first().map(L::last_time).filter(|t| !t.is_nan())
     }
 
     /// One sample per series at time `t`; nothing changes when an error is returned.
@@ -103,6 +113,11 @@ impl<L: Lane> Bank<L> {
             .map(|_| L::load(&mut r, &self.settings))
             .collect::<Result<Vec<_>>>()?;
         r.finish()?;
+        let t = lanes[0].last_time();
+        r.check(
+            lanes.iter().all(|l| same_time(l.last_time(), t)),
+            "series with different last times",
+        )?;
         self.lanes = lanes;
         Ok(())
     }

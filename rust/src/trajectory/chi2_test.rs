@@ -7,7 +7,7 @@
 
 use super::innovation_filter::InnovationFilter;
 use super::model::MotionModel;
-use super::state::{Reader, Writer};
+use super::state::{square_statistic, Reader, Writer};
 use crate::Result;
 
 /// The innovation filter and the last W squared innovations.
@@ -75,6 +75,11 @@ impl Chi2Test {
         Ok(())
     }
 
+    /// Time of the last sample (NaN before the first).
+    pub(crate) fn last_time(&self) -> f64 {
+        self.filter.last_time()
+    }
+
     pub(crate) fn save(&self, w: &mut Writer) {
         self.filter.save(w);
         w.count(self.window.len() as u64);
@@ -91,6 +96,10 @@ impl Chi2Test {
         let mut all = vec![0.0; width];
         r.fill(&mut all)?;
         all.truncate(len);
+        r.check(
+            all.iter().all(|&u2| square_statistic(u2)),
+            "squared innovations negative, not finite or too large",
+        )?;
         Ok(Self {
             filter,
             window: all,

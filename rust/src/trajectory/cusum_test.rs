@@ -7,7 +7,7 @@
 
 use super::innovation_filter::InnovationFilter;
 use super::model::MotionModel;
-use super::state::{Reader, Writer};
+use super::state::{square_statistic, Reader, Writer};
 use crate::Result;
 
 /// The innovation filter and the two cumulative sums.
@@ -66,16 +66,26 @@ impl CusumTest {
         Ok(())
     }
 
+    /// Time of the last sample (NaN before the first).
+    pub(crate) fn last_time(&self) -> f64 {
+        self.filter.last_time()
+    }
+
     pub(crate) fn save(&self, w: &mut Writer) {
         self.filter.save(w);
         w.f64s(&[self.up, self.down]);
     }
 
     pub(crate) fn load(r: &mut Reader) -> Result<Self> {
-        Ok(Self {
+        let test = Self {
             filter: InnovationFilter::load(r)?,
             up: r.f64()?,
             down: r.f64()?,
-        })
+        };
+        r.check(
+            square_statistic(test.up) && square_statistic(test.down),
+            "CUSUM sums negative, not finite or too large",
+        )?;
+        Ok(test)
     }
 }

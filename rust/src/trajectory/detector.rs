@@ -15,9 +15,9 @@ use super::chi2_test::Chi2Test;
 use super::cusum_test::CusumTest;
 use super::cusum_threshold::cusum_threshold;
 use super::fuzzy_test::FuzzyTest;
-use super::model::MotionModel;
+use super::model::{GainRule, MotionModel};
 use super::series::{check_sample, SeriesFilter};
-use super::state::{Reader, Writer};
+use super::state::{same_time, Reader, Writer};
 use super::time_step;
 use crate::identification::chi_squared_quantile;
 use crate::{FieldError, Result};
@@ -221,13 +221,22 @@ impl DetectorLane {
         }
     }
 
-    fn load(r: &mut Reader, cfg: &DetectorConfig) -> Result<Self> {
-        let estimator = SeriesFilter::load(r)?;
+    fn load(r: &mut Reader, model: &MotionModel, cfg: &DetectorConfig) -> Result<Self> {
+        let estimator = SeriesFilter::load(r, model.rule == GainRule::Kalman)?;
         let test = match cfg.method {
             Method::Fuzzy => Test::Fuzzy(FuzzyTest::load(r)?),
             Method::Chi2 => Test::Chi2(Chi2Test::load(r, cfg.window)?),
             Method::Cusum => Test::Cusum(CusumTest::load(r)?),
         };
+        let test_time = match &test {
+            Test::Fuzzy(t) => t.last_time(),
+            Test::Chi2(t) => t.last_time(),
+            Test::Cusum(t) => t.last_time(),
+        };
+        r.check(
+            same_time(test_time, estimator.last_time()),
+            "the detector's test and estimator disagree on the last time",
+        )?;
         Ok(Self { estimator, test })
     }
 }
@@ -255,7 +264,10 @@ impl Lane for DetectorLane {
         DetectorLane::save(self, w)
     }
     fn load(r: &mut Reader, s: &DetectorSettings) -> Result<Self> {
-        DetectorLane::load(r, &s.config)
+        DetectorLane::load(r, &s.model, &s.config)
+    }
+    fn last_time(&self) -> f64 {
+        self.estimator.last_time()
     }
 }
 

@@ -12,7 +12,7 @@
 use super::fuzzy_gains::predicted_spread;
 use super::model::{GainRule, MotionModel};
 use super::series::SeriesFilter;
-use super::state::{Reader, Writer};
+use super::state::{square_statistic, within, Reader, Writer};
 use crate::Result;
 
 /// The statistics after a tested sample (applied unless it alarms).
@@ -116,6 +116,11 @@ impl FuzzyTest {
         Ok(())
     }
 
+    /// Time of the last sample (NaN before the first).
+    pub(crate) fn last_time(&self) -> f64 {
+        self.filter.last_time()
+    }
+
     pub(crate) fn save(&self, w: &mut Writer) {
         self.filter.save(w);
         w.f64s(&[self.s, self.d, self.p_diff]);
@@ -123,12 +128,18 @@ impl FuzzyTest {
     }
 
     pub(crate) fn load(r: &mut Reader) -> Result<Self> {
-        Ok(Self {
-            filter: SeriesFilter::load(r)?,
+        let test = Self {
+            filter: SeriesFilter::load(r, false)?,
             s: r.f64()?,
             d: r.f64()?,
             p_diff: r.f64()?,
             tested: r.flag()?,
-        })
+        };
+        let averages = [test.s, test.d].into_iter().all(square_statistic);
+        r.check(
+            averages && within(test.p_diff) && test.p_diff >= 0.0,
+            "the fuzzy test's averages or spread negative, not finite or too large",
+        )?;
+        Ok(test)
     }
 }

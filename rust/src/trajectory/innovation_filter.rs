@@ -13,7 +13,7 @@
 use super::gain::{Seen, Spread};
 use super::kalman_gains;
 use super::model::{GainRule, MotionModel};
-use super::state::{Reader, Writer};
+use super::state::{is_spread, within, Reader, Writer};
 use super::time_step;
 use crate::Result;
 
@@ -152,6 +152,11 @@ impl InnovationFilter {
         self.v += g.vx * nu + g.vv * nu_v;
     }
 
+    /// Time of the last sample (NaN before the first).
+    pub(crate) fn last_time(&self) -> f64 {
+        self.t_last
+    }
+
     pub(crate) fn save(&self, w: &mut Writer) {
         w.count(self.phase as u64);
         w.f64(self.t_last);
@@ -171,7 +176,7 @@ impl InnovationFilter {
         };
         let mut f = Self {
             phase,
-            t_last: r.f64()?,
+            t_last: r.time()?,
             x: r.f64()?,
             v: r.f64()?,
             ..Self::new()
@@ -179,6 +184,32 @@ impl InnovationFilter {
         r.fill(&mut f.cov)?;
         r.fill(&mut f.anchor)?;
         r.fill(&mut f.drift)?;
+        match f.phase {
+            Phase::Empty => {
+                return Ok(Self {
+                    t_last: f.t_last,
+                    ..Self::new()
+                })
+            }
+            Phase::Half => {
+                let [za, ta] = f.anchor;
+                r.check(
+                    within(za) && ta.is_finite() && ta <= f.t_last,
+                    "the detector's first sample not finite, too large or after the last time",
+                )?;
+                r.check(
+                    is_spread(&f.drift, true),
+                    "a process-noise covariance that is not one",
+                )?;
+            }
+            Phase::Proper => {
+                r.check(
+                    f.t_last.is_finite() && within(f.x) && within(f.v),
+                    "the detector's estimate or time not finite or beyond ±1e150",
+                )?;
+                r.check(is_spread(&f.cov, true), "a covariance that is not one")?;
+            }
+        }
         Ok(f)
     }
 }

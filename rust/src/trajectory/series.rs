@@ -11,7 +11,7 @@ use super::gain::{Gain, Seen, Spread};
 use super::gain_recursion;
 use super::model::MotionModel;
 use super::start::least_squares_start;
-use super::state::{Reader, Writer};
+use super::state::{is_spread, nan_or_within, within, Reader, Writer};
 use super::time_step;
 use crate::{FieldError, Result};
 
@@ -225,10 +225,11 @@ impl SeriesFilter {
         w.f64s(&self.warm_zv);
     }
 
-    /// Reads a state written by [`SeriesFilter::save`].
-    pub(crate) fn load(r: &mut Reader) -> Result<Self> {
+    /// Reads a state written by [`SeriesFilter::save`] for a recursion of the Kalman rule
+    /// (`kalman`) or the fuzzy one, checking its numbers.
+    pub(crate) fn load(r: &mut Reader, kalman: bool) -> Result<Self> {
         let mut f = Self {
-            t_last: r.f64()?,
+            t_last: r.time()?,
             started: r.flag()?,
             step: r.count()?,
             x: r.f64()?,
@@ -239,9 +240,33 @@ impl SeriesFilter {
         r.fill(&mut f.warm_t)?;
         r.fill(&mut f.warm_z)?;
         r.fill(&mut f.warm_zv)?;
-        let finite = f.x.is_finite() && f.v.is_finite() && f.spread.iter().all(|s| s.is_finite());
-        if f.started && !(finite && f.t_last.is_finite()) {
-            return Err(r.corrupt());
+        if !f.started {
+            // nothing but the time is read before the next segment begins
+            return Ok(Self {
+                t_last: f.t_last,
+                ..Self::new()
+            });
+        }
+        r.check(f.t_last.is_finite(), "a started filter without a last time")?;
+        r.check(
+            within(f.x) && within(f.v),
+            "an estimate not finite or beyond ±1e150",
+        )?;
+        r.check(
+            is_spread(&f.spread, kalman),
+            "spreads that no recursion gives",
+        )?;
+        if f.step + 1 < WARM_UP as u64 {
+            let k = f.step as usize;
+            let t = &f.warm_t[..=k];
+            let ordered = t.iter().all(|t| t.is_finite())
+                && t.windows(2).all(|w| w[0] < w[1])
+                && t[k] <= f.t_last;
+            r.check(ordered, "warm-up times out of order")?;
+            let samples = within(f.warm_z[0])
+                && f.warm_z[1..=k].iter().all(|&z| nan_or_within(z))
+                && f.warm_zv[..=k].iter().all(|&z| nan_or_within(z));
+            r.check(samples, "warm-up samples not finite or beyond ±1e150")?;
         }
         Ok(f)
     }

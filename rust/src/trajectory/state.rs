@@ -1,6 +1,8 @@
 //! Streaming states as flat float64 arrays (the pickled form): counters and flags are stored
 //! as exact small integers, and every read is checked, so a truncated array or one saved by
-//! another configuration is an error, not a panic.
+//! another configuration is an error, not a panic. The loaders check the numbers too (within
+//! [`MAX_VALUE`], spreads that are spreads, times in order): an altered state is refused at
+//! load, not by a later step.
 
 use crate::{FieldError, Result};
 
@@ -29,6 +31,45 @@ pub struct Reader<'a>(&'a [f64]);
 /// The largest counter stored exactly in a float64.
 const MAX_COUNT: f64 = 9_007_199_254_740_992.0;
 
+/// Largest |estimate|, spread or covariance entry of a restored state: the samples' range
+/// (`MAX_SAMPLE`); beyond it the next step's products leave float64.
+pub(crate) const MAX_VALUE: f64 = 1e150;
+/// Largest restored statistic built from squared innovations (averages, CUSUM sums).
+pub(crate) const MAX_SQUARE: f64 = 1e300;
+
+/// The same last time (both NaN: no sample yet).
+pub(crate) fn same_time(a: f64, b: f64) -> bool {
+    a == b || (a.is_nan() && b.is_nan())
+}
+
+/// Within ±[`MAX_VALUE`] (NaN and infinities are not).
+pub(crate) fn within(v: f64) -> bool {
+    v.abs() <= MAX_VALUE
+}
+
+/// Missing (NaN) or within ±[`MAX_VALUE`].
+pub(crate) fn nan_or_within(v: f64) -> bool {
+    v.is_nan() || within(v)
+}
+
+/// A statistic of squares: in [0, [`MAX_SQUARE`]].
+pub(crate) fn square_statistic(v: f64) -> bool {
+    (0.0..=MAX_SQUARE).contains(&v)
+}
+
+/// Spreads a recursion can hold: the fuzzy spreads (P, P', unused) non-negative, the Kalman
+/// covariance (Σxx, Σxv, Σvv) positive semi-definite (up to rounding); entries within
+/// ±[`MAX_VALUE`].
+pub(crate) fn is_spread(s: &[f64; 3], kalman: bool) -> bool {
+    let [a, b, c] = *s;
+    let sign_ok = if kalman {
+        a >= 0.0 && c >= 0.0 && b * b <= a * c * (1.0 + 1e-9)
+    } else {
+        a >= 0.0 && b >= 0.0
+    };
+    s.iter().all(|&v| within(v)) && sign_ok
+}
+
 impl<'a> Reader<'a> {
     pub(crate) fn new(values: &'a [f64]) -> Self {
         Self(values)
@@ -37,6 +78,24 @@ impl<'a> Reader<'a> {
         FieldError::InvalidParameter(
             "the saved state is truncated, altered or was saved with another configuration".into(),
         )
+    }
+    /// The error of a state whose numbers no run could have left (`what` says which).
+    pub(crate) fn altered(&self, what: &str) -> FieldError {
+        FieldError::InvalidParameter(format!("the saved state is altered: {what}"))
+    }
+    /// Ok when `ok`, else [`Reader::altered`].
+    pub(crate) fn check(&self, ok: bool, what: &str) -> Result<()> {
+        if ok {
+            Ok(())
+        } else {
+            Err(self.altered(what))
+        }
+    }
+    /// A time: NaN (none yet) or finite.
+    pub(crate) fn time(&mut self) -> Result<f64> {
+        let t = self.f64()?;
+        self.check(!t.is_infinite(), "an infinite time")?;
+        Ok(t)
     }
     pub(crate) fn f64(&mut self) -> Result<f64> {
         let (&head, tail) = self.0.split_first().ok_or_else(|| self.corrupt())?;

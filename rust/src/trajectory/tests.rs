@@ -143,6 +143,21 @@ fn streaming_state_round_trips() {
         assert_eq!(a, b);
     }
     assert!(copy.load(&bank.save()[1..]).is_err());
+    // numbers no run leaves: (per lane) t_last, started, step, x̂, x̂', the spreads, …
+    let saved = bank.save();
+    let lane = saved.len() / 2;
+    for (i, v) in [
+        (3, -4e161),
+        (4, f64::INFINITY),
+        (5, -1.0),
+        (0, 1e300),
+        (lane, 5.5),
+    ] {
+        let mut bad = saved.clone();
+        bad[i] = v;
+        assert!(copy.load(&bad).is_err(), "value {i} = {v}");
+    }
+    assert!(copy.load(&saved).is_ok());
 }
 
 #[test]
