@@ -110,12 +110,13 @@ def test_the_numbers(report):
     tracking = numbers["tracking"]
     # seeds 0–5 of this configuration (2026-12-02): fitted/true-model MSE 1.001–1.006,
     # true model/bound 1.005–1.029, IDF1 0.91–1.0, MOTA 0.95–1.0, 2–3 of 3 changes found,
-    # types right for 3–6 of 6 targets (4 on seed 3: the bank sees at most 40 frames, fewer
-    # after a change point, so this is a check of seed 3, not of the bank's rate)
+    # types right for 3–6 of 6 targets (the bank sees at most 40 frames, fewer after a change
+    # point: too few targets for a rate; the bank's error rates are tested in tests/filterbank)
     assert tracking["idf1"] > 0.8 and tracking["mota"] > 0.75
     changes = numbers["change_points"]
     assert changes["true_changes"] == 3 and changes["detected"] >= 2
-    assert numbers["types"]["correct"] >= 4
+    types = numbers["types"]
+    assert types["targets"] == 6 and 0 <= types["correct"] <= types["targets"]
 
 
 def test_save_arrays(tmp_path, capsys):
