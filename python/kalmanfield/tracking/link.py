@@ -273,13 +273,22 @@ def _estimated_config(
     return TrackerConfig.from_settings({**settings, **final}, caller="link")
 
 
+#: the largest noise level the tracker takes (its filters square them); estimates from tables
+#: of absurd coordinates are capped there, so that `link` still answers
+_MAX_LEVEL = 1e100
+
+
 def _in_time_units(noise: MotionNoise, dt: float) -> dict[str, Any]:
     """Settings from noise levels per frame step: σ_a / dt², σ_D / √dt, speed / dt."""
+
+    def capped(values: Any) -> Any:
+        return tuple(min(float(v), _MAX_LEVEL) for v in np.atleast_1d(values))
+
     return {
-        "measurement_std": noise.measurement_std,
-        "process_std": tuple(v / dt**2 for v in noise.process_std),
-        "diffusion_std": tuple(v / math.sqrt(dt) for v in noise.diffusion_std),
-        "max_speed": noise.max_speed / dt,
+        "measurement_std": capped(noise.measurement_std),
+        "process_std": capped([v / dt**2 for v in noise.process_std]),
+        "diffusion_std": capped([v / math.sqrt(dt) for v in noise.diffusion_std]),
+        "max_speed": min(noise.max_speed / dt, _MAX_LEVEL),
     }
 
 
