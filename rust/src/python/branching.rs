@@ -1,6 +1,6 @@
 //! Binding of the branching tracker (SPEC §3.1–3.3): `kalmanfield._core.BranchingTracker`.
 
-use crate::tracking::{BranchingTracker, Selection, TrackerConfig, MAX_MOTION_ORDER};
+use crate::tracking::{BranchingTracker, FrameStats, Selection, TrackerConfig, MAX_MOTION_ORDER};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -82,20 +82,10 @@ impl PyBranchingTracker {
             .inner
             .stats
             .iter()
-            .flat_map(|s| {
-                [
-                    s.measurements,
-                    s.live_before,
-                    s.children,
-                    s.live,
-                    s.seeds,
-                    s.bookkeeping,
-                ]
-            })
-            .map(|v| v as i64)
+            .flat_map(FrameStats::counters)
             .collect();
-        let rows = flat.len() / 6;
-        PyArray1::from_vec(py, flat).reshape([rows, 6])
+        let rows = flat.len() / FrameStats::COUNTERS;
+        PyArray1::from_vec(py, flat).reshape([rows, FrameStats::COUNTERS])
     }
 
     /// Global id of the first measurement of every frame.

@@ -216,21 +216,7 @@ impl BranchingTracker {
         w.f64s(&o.position);
         w.bools(&o.coasted);
         w.f64s(&o.llr);
-        let stats: Vec<i64> = self
-            .stats
-            .iter()
-            .flat_map(|s| {
-                [
-                    s.measurements,
-                    s.live_before,
-                    s.children,
-                    s.live,
-                    s.seeds,
-                    s.bookkeeping,
-                ]
-            })
-            .map(|v| v as i64)
-            .collect();
+        let stats: Vec<i64> = self.stats.iter().flat_map(FrameStats::counters).collect();
         w.i64s(&stats);
         w.0
     }

@@ -25,6 +25,25 @@ pub struct FrameStats {
     pub bookkeeping: usize,
 }
 
+impl FrameStats {
+    /// The number of counters of a frame.
+    pub const COUNTERS: usize = 6;
+
+    /// The counters in their order: measurements, live before, children, live after, new
+    /// sequences, bookkeeping.
+    pub fn counters(&self) -> [i64; Self::COUNTERS] {
+        [
+            self.measurements,
+            self.live_before,
+            self.children,
+            self.live,
+            self.seeds,
+            self.bookkeeping,
+        ]
+        .map(|v| v as i64)
+    }
+}
+
 /// The per-frame online answer (greedy over the live confirmed sequences).
 #[derive(Debug, Clone, Default)]
 pub struct OnlineAnswer {
