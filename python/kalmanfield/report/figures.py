@@ -4,6 +4,7 @@ axes and colour bars; returned as PNG bytes."""
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -208,7 +209,7 @@ def extended_objects(
     masks: list[np.ndarray],
     tracks: list[pd.DataFrame],
     title: str,
-    truth: list[pd.DataFrame] = (),
+    truth: Sequence[pd.DataFrame] = (),
 ) -> bytes:
     """The detected objects' masks outlined on a frame, with their centre tracks and the
     true centre paths (dotted)."""
