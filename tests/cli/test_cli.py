@@ -136,6 +136,19 @@ def test_simulate_sequence_with_a_model_file_and_noise(tmp_path, capsys):
     assert len(list((tmp_path / "frames").glob("frame_*.png"))) == 7
 
 
+def test_simulate_scene_equals_simulate_scene(tmp_path, capsys):
+    argv = ["simulate", "scene", "--frames", "6", "--shape", "40", "48", "--targets", "2"]
+    argv += ["--snr", "4", "--p-false", "0.5", "--seed", "5", "--quiet"]
+    assert run(capsys, *argv, "--out", str(tmp_path / "s.npy"))[0] == 0
+    scene = kf.simulate_scene((40, 48), 6, targets=2, snr=4.0, p_false=0.5, dt=0.1, seed=5)
+    assert np.array_equal(np.load(tmp_path / "s.npy"), scene.frames)
+    truth = pd.read_csv(tmp_path / "s.npy.truth.csv")
+    assert list(truth.columns) == ["frame", "target", "x", "y", "vx", "vy"]
+    assert np.allclose(truth[["x", "y"]], scene.truth[["x", "y"]])
+    got, _, err = run(capsys, *argv, "--p-false", "2", "--out", str(tmp_path / "t.npy"))
+    assert got == 1 and "--p-false" in err and not (tmp_path / "t.npy").exists()
+
+
 @pytest.mark.parametrize(
     "argv, code, message",
     [

@@ -84,6 +84,7 @@ def test_the_report_is_self_contained_and_every_figure_captioned(report):
         "tracks over frames",
         "P_o and type confusion",
         "change points",
+        "extended objects",
     ):
         assert any(words in caption for caption in page.captions), words
 
@@ -108,15 +109,23 @@ def test_the_numbers(report):
     assert mse["row filter, model fitted to the noisy frames"] < 1.1 * mse["row filter, true model"]
     assert mse["noisy frames"] > 30 * bound
     tracking = numbers["tracking"]
-    # seeds 0–5 of this configuration (2026-12-02): fitted/true-model MSE 1.001–1.006,
-    # true model/bound 1.005–1.029, IDF1 0.91–1.0, MOTA 0.95–1.0, 2–3 of 3 changes found,
+    # seeds 0–5 of this configuration (2026-12-02, two extended objects crossing the six
+    # targets' 64-px start square): fitted/true-model MSE 0.998–1.044, true model/bound
+    # 1.005–1.029, IDF1 0.72–0.98, MOTA 0.77–0.98, 2–3 of 3 changes found,
     # types right for 3–6 of 6 targets (the bank sees at most 40 frames, fewer after a change
     # point: too few targets for a rate; the bank's error rates are tested in tests/filterbank)
-    assert tracking["idf1"] > 0.8 and tracking["mota"] > 0.75
+    assert tracking["idf1"] > 0.65 and tracking["mota"] > 0.7
     changes = numbers["change_points"]
     assert changes["true_changes"] == 3 and changes["detected"] >= 2
     types = numbers["types"]
     assert types["targets"] == 6 and 0 <= types["correct"] <= types["targets"]
+    # each extended object has a detected object's centre within its radius in 90–95 % of its
+    # frames (seeds 0–5), and the one on it longest has its velocity
+    extended = numbers["extended_objects"]
+    assert extended["objects"] == 2 and len(extended["per_object"]) == 2
+    for found in extended["per_object"]:
+        assert found["P_o"] > 0.75 and found["longest"] >= 5
+        assert np.hypot(*np.subtract(found["v_found"], found["v_true"])) < 0.25
 
 
 def test_save_arrays(tmp_path, capsys):
@@ -148,6 +157,7 @@ def test_save_arrays(tmp_path, capsys):
         ["--size", "32"],
         ["--frames", "5"],
         ["--targets", "0"],
+        ["--extended", "-1"],
         ["--size", "x"],
         ["--noise-std", "0"],
     ],
@@ -166,38 +176,39 @@ def test_the_old_entry_point_still_runs():
     assert done.returncode == 0 and "--save-arrays" in done.stdout
 
 
-class FakeObject:
-    """What issue 52's DetectedObject offers the report: a centre track and a mask per frame."""
+def test_extended_scores_on_hand_built_tracks():
+    from kalmanfield.report.metrics import extended_scores
 
-    def __init__(self, frames, shape):
-        self.track = pd.DataFrame({"frame": frames, "x": 10.0 + frames, "y": 20.0 + 0 * frames})
-        self._shape = shape
+    frames = np.arange(10)
+    truth = pd.DataFrame(
+        {"frame": frames, "object": 0, "x": 10.0 + frames, "y": 20.0, "vx": 1.0, "vy": 0.0}
+    )
+    # object A follows frames 0–5 within the gate, B frames 6–7, C is elsewhere
+    a = pd.DataFrame({"frame": frames[:6], "x": 11.0 + frames[:6], "y": 21.0})
+    b = pd.DataFrame({"frame": frames[6:8], "x": 10.0 + frames[6:8], "y": 23.0})
+    c = pd.DataFrame({"frame": frames, "x": 80.0, "y": 80.0})
+    for t in (a, b, c):
+        t["vx"], t["vy"] = 0.9, 0.1
+    row = extended_scores(truth, [c, a, b], gate=3.5).iloc[0]
+    assert row["frames"] == 10 and row["P_o"] == 0.8
+    assert row["detected_as"] == 2 and row["best"] == 1 and row["longest"] == 6
+    assert row["v_true"] == (1.0, 0.0) and np.allclose(row["v_found"], (0.9, 0.1))
+    assert extended_scores(truth, [], gate=3.5).iloc[0]["P_o"] == 0.0
 
-    def mask(self, frame):
-        mask = np.zeros(self._shape, bool)
-        mask[18:23, 8 + frame : 13 + frame] = True
-        return mask
+
+def test_farther_keeps_points_away_from_every_centre_of_their_frame():
+    from kalmanfield.report.metrics import farther
+
+    hyp = pd.DataFrame({"frame": [0, 0, 1, 2], "x": [0.0, 5.0, 0.0, 0.0], "y": 0.0})
+    centres = pd.DataFrame({"frame": [0, 1, 1], "x": [0.0, 9.0, 0.5], "y": [0.0, 0.0, 0.0]})
+    assert farther(hyp, centres, 2.0).tolist() == [False, True, False, True]
 
 
-def test_extended_objects_figure_only_when_the_detector_exists(tmp_path, monkeypatch):
-    import kalmanfield
-    from kalmanfield.report import pipeline
-
-    calls = []
-
-    def detect_moving_objects(frames, *, noise_std=None, threshold=None):
-        calls.append((frames.shape, noise_std, threshold))
-        return [FakeObject(np.arange(len(frames)), frames.shape[1:])]
-
-    monkeypatch.delattr(kalmanfield, "detect_moving_objects", raising=False)
-    assert pipeline._extended_objects(np.zeros((3, 8, 8)), {}) is None
-    monkeypatch.setattr(kalmanfield, "detect_moving_objects", detect_moving_objects, raising=False)
+def test_a_scene_without_extended_objects(tmp_path):
     argv = ["demo", "--size", "64", "--frames", "20", "--targets", "2", "--quiet"]
-    assert main([*argv, "--out", str(tmp_path)]) == 0
-    assert calls == [((20, 64, 64), 1.0, 4.0)]
+    assert main([*argv, "--extended", "0", "--out", str(tmp_path)]) == 0
+    numbers = json.loads((tmp_path / "numbers.json").read_text())
+    assert numbers["extended_objects"]["per_object"] == []
     page = Page()
     page.feed((tmp_path / "index.html").read_text(encoding="utf-8"))
-    shown = [c for c in page.captions if "extended objects" in c]
-    assert len(shown) == 1 and shown[0].startswith("Figure 5")
-    numbers = json.loads((tmp_path / "numbers.json").read_text())
-    assert numbers["extended_objects"] == {"shown": 1}
+    assert not any("extended objects" in c for c in page.captions)

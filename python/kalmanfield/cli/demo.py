@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import OK, at_least, common, positive_float, positive_int
+from ._common import OK, at_least, common, nonnegative_int, positive_float, positive_int
 
 #: the smallest frame side and frame count the demo runs with
 MIN_SIZE, MIN_FRAMES = 64, 20
@@ -17,10 +17,12 @@ def register(commands: argparse._SubParsersAction) -> None:
         "demo",
         help="simulate a scene, denoise, detect, track, find change points, identify types; "
         "write an HTML report",
-        description="Simulates point targets of two motion types over AR-field clutter plus "
-        "white noise; estimates the clutter with the row Kalman filter, detects the targets "
-        "in the residual, tracks them (BranchingTracker), finds their velocity changes "
-        "(ChangeDetector) and identifies their types (TypeIdentifier); scores it all against "
+        description="Simulates point targets of two motion types and extended objects made "
+        "of fragments over AR-field clutter plus white noise; estimates the clutter with the "
+        "row Kalman filter, detects the targets in the residual, tracks them "
+        "(BranchingTracker), finds their velocity changes (ChangeDetector), identifies their "
+        "types (TypeIdentifier), detects the extended objects (detect_moving_objects); scores "
+        "it all against "
         "the truth and writes OUT/index.html (self-contained, figures embedded), "
         "OUT/tracks.gif, OUT/tracks.csv and OUT/numbers.json.",
     )
@@ -40,6 +42,12 @@ def register(commands: argparse._SubParsersAction) -> None:
         help=f"number of frames (default 60, at least {MIN_FRAMES})",
     )
     p.add_argument("--targets", type=positive_int, default=8, help="point targets (default 8)")
+    p.add_argument(
+        "--extended",
+        type=nonnegative_int,
+        default=2,
+        help="extended objects, each three fragments moving together (default 2)",
+    )
     p.add_argument(
         "--noise-std",
         type=positive_float,
@@ -63,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         size=args.size,
         n_frames=args.frames,
         n_targets=args.targets,
+        n_extended=args.extended,
         noise_std=args.noise_std,
         seed=args.seed,
         save_arrays=args.save_arrays,
@@ -80,6 +89,10 @@ def run(args: argparse.Namespace) -> int:
         f"{changes['detected']}/{changes['true_changes']} changes found"
         + (f" (mean delay {delay:.1f} frames)" if delay is not None else "")
         + f"; types right for {n['types']['correct']}/{n['types']['targets']} targets"
+        + "".join(
+            f"; extended object {r['object']} P_o {r['P_o']:.2f}"
+            for r in n["extended_objects"]["per_object"]
+        )
     )
     print(f"report: {result.files['report'].resolve()}")
     return OK

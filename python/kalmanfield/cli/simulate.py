@@ -91,17 +91,50 @@ KINDS["sequence"] = (
     "frames of a space–time field (axis 0 of the model is time)",
     _sequence_options,
 )
-# HOOK (issue 52): once kalmanfield.simulate_scene exists, register "scene" here, e.g.
-# KINDS["scene"] = ("a scene: clutter, targets, extended objects; frames + truth CSV",
-#                   _scene_options), with _scene_options setting `run=_scene` on its parser.
+
+
+def _scene_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--frames", type=positive_int, default=50, help="frames (default 50)")
+    p.add_argument(
+        "--shape", type=positive_int, nargs=2, default=[64, 64], help="frame shape (default 64 64)"
+    )
+    p.add_argument(
+        "--targets", type=positive_int, default=1, help="targets, 10-px rhombi (default 1)"
+    )
+    p.add_argument(
+        "--snr", type=positive_float, default=3.0, help="target amplitude / noise std (default 3)"
+    )
+    p.add_argument(
+        "--p-false",
+        type=float,
+        default=0.1,
+        help="probability that a frame holds clutter spots (default 0.1)",
+    )
+    p.add_argument("--dt", type=positive_float, default=0.1, help="time between frames (0.1)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="frames: .npy, .tif, .zarr, a folder of PNG frames (no suffix), .gif or .mp4; "
+        "the truth (frame, target, x, y, vx, vy) goes to <out>.truth.csv",
+    )
+    p.set_defaults(run=_scene)
+
+
+KINDS["scene"] = (
+    "a scene with moving targets, clutter spots, foreign objects and noise "
+    "(kalmanfield.simulate_scene); frames + truth CSV",
+    _scene_options,
+)
 
 
 def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
         "simulate",
-        help="simulate a field or a frame sequence into a file",
-        description="Simulates an exactly stationary AR field (ARFieldModel.sample) or a "
-        "sequence of frames (FieldStream) and writes it.",
+        help="simulate a field, a frame sequence or a scene with targets into files",
+        description="Simulates an exactly stationary AR field (ARFieldModel.sample), a "
+        "sequence of frames (FieldStream) or a scene with moving targets and its truth "
+        "(simulate_scene) and writes it.",
     )
     kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
     for kind, (text, options) in KINDS.items():
@@ -176,3 +209,24 @@ def _sequence(args: argparse.Namespace, model: ARFieldModel) -> None:
     write_stack(
         args.out, _frames(stream, args.frames, args.mean, args, "frame", noise, args.noise_std)
     )
+
+
+def _scene(args: argparse.Namespace) -> int:
+    from ..extended import simulate_scene
+
+    if not 0.0 <= args.p_false <= 1.0:
+        raise ValueError(f"--p-false must lie in [0, 1], got {args.p_false}")
+    scene = simulate_scene(
+        tuple(args.shape),
+        args.frames,
+        targets=args.targets,
+        snr=args.snr,
+        p_false=args.p_false,
+        dt=args.dt,
+        seed=args.seed,
+    )
+    write_stack(args.out, scene.frames)
+    truth = args.out.with_name(args.out.name + ".truth.csv")
+    scene.truth.to_csv(truth, index=False)
+    say(args, f"wrote {args.out} and {truth} (seed {args.seed})")
+    return OK

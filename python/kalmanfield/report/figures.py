@@ -4,6 +4,7 @@ axes and colour bars; returned as PNG bytes."""
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -204,12 +205,19 @@ def animation_frames(
 
 
 def extended_objects(
-    frame: np.ndarray, masks: list[np.ndarray], tracks: list[pd.DataFrame], title: str
+    frame: np.ndarray,
+    masks: list[np.ndarray],
+    tracks: list[pd.DataFrame],
+    title: str,
+    truth: Sequence[pd.DataFrame] = (),
 ) -> bytes:
-    """The detected objects' masks outlined on a frame, with their centre tracks."""
+    """The detected objects' masks outlined on a frame, with their centre tracks and the
+    true centre paths (dotted)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 6), constrained_layout=True)
     _image(ax, frame, title, "matched residual (noise std)")
+    for path in truth:
+        ax.plot(path["x"], path["y"], ":", color="white", lw=1.2)
     for k, (mask, track) in enumerate(zip(masks, tracks)):
         colour = plt.cm.tab10(k % 10)
         if mask.any():

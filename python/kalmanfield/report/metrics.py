@@ -1,6 +1,6 @@
 """The demo's scores against the truth: IDF1 and MOTA (py-motmetrics when installed, else a
 plain identity-match count), the probability of correct detection per frame, change-point
-detection delays and the type confusion matrix."""
+detection delays, the type confusion matrix and the extended objects' detection."""
 
 from __future__ import annotations
 
@@ -177,3 +177,50 @@ def type_confusion_matrix(
         got = by_track.get(track, "not tracked") if track is not None else "not tracked"
         table.loc[names[int(kind)], got] += 1
     return table
+
+
+def farther(hyp: pd.DataFrame, centres: pd.DataFrame, radius: float) -> np.ndarray:
+    """True for the rows of `hyp` (frame, x, y, …) farther than `radius` from every row of
+    `centres` (frame, x, y) in the same frame."""
+    keep = np.ones(len(hyp), bool)
+    frame = hyp["frame"].to_numpy()
+    for f, c in centres.groupby("frame"):
+        rows = np.flatnonzero(frame == f)
+        xy = hyp[["x", "y"]].to_numpy()[rows]
+        d = np.hypot(*(xy[:, None, :] - c[["x", "y"]].to_numpy()[None]).transpose(2, 0, 1))
+        keep[rows] = (d > radius).all(axis=1)
+    return keep
+
+
+def extended_scores(truth: pd.DataFrame, tracks: list[pd.DataFrame], gate: float) -> pd.DataFrame:
+    """Per true extended object (`truth`: frame, object, x, y, vx, vy): its frames, P_o (the
+    fraction of them in which a detected object's centre lies within `gate`), how many
+    detected objects do (1: one object follows it throughout; more: it was fragmented), and
+    which one does longest (`best`, its index in `tracks`: each detected object's centre
+    track, frame, x, y, vx, vy; −1 for none), for how many frames, and its mean velocity
+    beside the truth."""
+    empty = pd.DataFrame({c: np.zeros(0) for c in ("x", "y", "vx", "vy")}).assign(
+        frame=np.zeros(0, np.int64), rank=np.zeros(0, np.int64)
+    )
+    found = pd.concat([empty] + [t.assign(rank=k) for k, t in enumerate(tracks)], ignore_index=True)
+    rows = []
+    for obj, t in truth.groupby("object"):
+        pairs = t.merge(found, on="frame", suffixes=("", "_found"))
+        near = pairs[np.hypot(pairs.x - pairs.x_found, pairs.y - pairs.y_found) <= gate]
+        counts = near.groupby("rank").size()
+        best = near[near["rank"] == counts.idxmax()] if len(counts) else near
+        rows.append(
+            {
+                "object": int(obj),
+                "frames": len(t),
+                "P_o": near["frame"].nunique() / len(t),
+                "detected_as": len(counts),
+                "longest": int(counts.max()) if len(counts) else 0,
+                "best": int(counts.idxmax()) if len(counts) else -1,
+                "v_true": (float(t.vx.mean()), float(t.vy.mean())),
+                "v_found": (float(best.vx_found.mean()), float(best.vy_found.mean()))
+                if len(best)
+                else None,
+            }
+        )
+    return pd.DataFrame(rows)
