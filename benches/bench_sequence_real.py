@@ -207,7 +207,7 @@ which is the exact filter on frames of at most 128², the same as the "optimal" 
 variance, an upper reference. The baselines' parameters are oracle-tuned: `gaussian_filter`
 takes the best isotropic σ (frames and pixels alike) of {GAUSSIAN_SIGMAS},
 `denoise_tv_chambolle` the best weight of {TV_WEIGHTS} (both by PSNR against the truth: an
-upper bound for those methods); `denoise_nl_means` (3-D patches 3³, search distance 3, fast
+upper bound for those methods; their times include the whole grid); `denoise_nl_means` (3-D patches 3³, search distance 3, fast
 mode, h = 0.8 σ, the true σ) is not tuned. Times are wall-clock in one run on two shared
 cores (other work ran on the machine: compare within a table)."""
 
