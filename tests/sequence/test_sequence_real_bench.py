@@ -1,6 +1,6 @@
 """The real-sequence benchmark runs in its quick mode (method page *Sequence filter*,
-§2.5.3): every scene's table is reported (cells3d, downloaded on first use, may be missing
-offline: then it says so), and on the moving-target scene the space–time filter beats the
+§2.5.3): every scene's table is reported (cells3d, downloaded on first use, is left out of
+the quick mode, which says so), and on the moving-target scene the space–time filter beats the
 temporal running mean, which blurs the targets. A quick run writes to bench_out/, never to
 docs/."""
 
