@@ -40,7 +40,10 @@ def test_bad_frames_mid_stream_leave_the_stream_unharmed(method):
     clean = kf.SequenceFilter(MODEL, 1.0, (6, 5), method=method)
     f.step(frames[0])
     clean.step(frames[0])
+    one_infinite = frames[1].copy()
+    one_infinite[2, 3], one_infinite[0, 0] = -np.inf, np.nan  # (the NaN alone is fine)
     bad_frames = [
+        (one_infinite, ValueError),
         (np.zeros((5, 6)), ValueError),
         (np.zeros((4, 6, 5)), ValueError),
         (np.full((6, 5), 1j), TypeError),

@@ -70,8 +70,9 @@ def error_model(model: ARFieldModel, ratio: float) -> tuple[ARFieldModel, float]
     noise ratio σ_θ²/σ_x² = `ratio`, and the design's predicted MSE (units of σ_x²).
 
     Per candidate multiplicities (1 or 2 per axis, and the field's own), a pattern search over
-    (ρ_y, ρ_x, log σ²) from the field's spatial ρ, halving its steps until they are below
-    1e-4; the candidate of least predicted MSE wins."""
+    (ρ_y, ρ_x, log σ²) from the field's spatial ρ (a gaining step doubles, up to its start;
+    all halve when none gains, until they are below 1e-4); the candidate of least predicted
+    MSE wins."""
     candidates = {(a, b) for a in (1, 2) for b in (1, 2)} | {(model.order[1], model.order[2])}
     fits = [_fit(model, ratio, orders) for orders in sorted(candidates)]
     return min(fits, key=lambda fit: fit[1])
@@ -84,7 +85,8 @@ def _fit(model: ARFieldModel, ratio: float, orders: tuple[int, int]) -> tuple[AR
         return loop_mse(model, ratio, _gain(p, orders, ratio))
 
     best = mse(params)
-    steps = np.array([0.05, 0.05, 0.5])
+    initial = np.array([0.05, 0.05, 0.5])
+    steps = initial.copy()
     while steps.max() > 1e-4:
         moved = False
         for i in range(3):
@@ -96,6 +98,9 @@ def _fit(model: ARFieldModel, ratio: float, orders: tuple[int, int]) -> tuple[AR
                 value = mse(trial)
                 if value < best:
                     params, best, moved = trial, value, True
+                    # a step that gains grows (up to its start): along a diagonal valley
+                    # the fixed steps zigzag for tens of thousands of evaluations
+                    steps[i] = min(2 * steps[i], initial[i])
         if not moved:
             steps /= 2
     fitted = ARFieldModel(

@@ -5,7 +5,7 @@
 //! to the steady state (by the caller; frame 0, predicted by zero, uses the field's own
 //! spatial model).
 
-use super::{check_model, check_step};
+use super::{check_model, check_pixels, check_sizes};
 use crate::error::{try_zeros, FieldError, Result};
 use crate::field::{AxisRecursion, FieldModel};
 use crate::rowfilter::{ModeSet, ScalarRowFilter};
@@ -24,6 +24,11 @@ pub struct FastSequenceFilter {
     /// The last n_t estimates, newest first (frame-major).
     history: Vec<f64>,
     frames: u64,
+    /// Scratch frames reused by every step (fresh 8 MB buffers per 1024² frame cost page
+    /// faults): the residual y and, once a frame has missing pixels, the row filter's
+    /// weights.
+    residual: Vec<f64>,
+    weights: Vec<f64>,
 }
 
 impl FastSequenceFilter {
@@ -57,6 +62,8 @@ impl FastSequenceFilter {
             height,
             history: try_zeros(n_t * height * width, "the previous estimates")?,
             frames: 0,
+            residual: try_zeros(height * width, "a frame buffer")?,
+            weights: Vec::new(),
         })
     }
 
@@ -74,43 +81,68 @@ impl FastSequenceFilter {
     /// writes the estimate of it into `out`.
     pub fn step(&mut self, z: &[f64], out: &mut [f64]) -> Result<()> {
         let size = self.frame_size();
-        let missing = check_step(z, out, size)?;
-        let mut prediction = try_zeros(size, "a frame buffer")?;
+        check_sizes(z, out, size)?;
         let seen = (self.frames as usize).min(self.recursion.order());
         let (coefficients, _) = self.recursion.at(seen);
-        for (a, previous) in coefficients.iter().zip(self.history.chunks_exact(size)) {
-            for (p, &v) in prediction.iter_mut().zip(previous) {
-                *p += a * v;
+        let history = &self.history;
+        // y = z − x̂_e (0 at a missing pixel), x̂_e never stored, and the pixels checked, in
+        // one pass over the frame: the step is bound by memory traffic (method page)
+        let (mut missing, mut infinite) = (0, false);
+        let mut residual = |r: &mut f64, v: f64, p: f64| {
+            missing += usize::from(v.is_nan());
+            infinite |= v.is_infinite();
+            *r = if v.is_nan() { 0.0 } else { v - p };
+        };
+        match coefficients {
+            [] => {
+                for (r, &v) in self.residual.iter_mut().zip(z) {
+                    residual(r, v, 0.0);
+                }
+            }
+            &[a] => {
+                for ((r, &v), &h) in self.residual.iter_mut().zip(z).zip(history) {
+                    residual(r, v, a * h);
+                }
+            }
+            _ => {
+                for (i, (r, &v)) in self.residual.iter_mut().zip(z).enumerate() {
+                    residual(r, v, predicted(coefficients, history, size, i));
+                }
             }
         }
-        let residual: Vec<f64> = z
-            .iter()
-            .zip(&prediction)
-            .map(|(&v, &p)| if v.is_nan() { 0.0 } else { v - p })
-            .collect();
-        let weights = (missing > 0).then(|| {
-            z.iter()
-                .map(|v| {
-                    if v.is_nan() {
-                        0.0
-                    } else {
-                        1.0 / self.noise_var
-                    }
-                })
-                .collect::<Vec<_>>()
-        });
+        check_pixels(infinite)?;
+        if missing > 0 {
+            let observed = 1.0 / self.noise_var;
+            self.weights.resize(size, 0.0);
+            for (w, v) in self.weights.iter_mut().zip(z) {
+                *w = if v.is_nan() { 0.0 } else { observed };
+            }
+        }
+        let weights = (missing > 0).then_some(self.weights.as_slice());
         let filter = if self.frames == 0 {
             &self.first
         } else {
             &self.steady
         };
-        filter.filter_image(&residual, weights.as_deref(), out, self.height, true)?;
-        for (o, p) in out.iter_mut().zip(&prediction) {
-            *o += p;
+        filter.filter_image(&self.residual, weights, out, self.height, true)?;
+        // x̂ = x̂_e + û, and the history shifted by one frame with x̂ as the newest
+        let history = &mut self.history;
+        match coefficients {
+            &[a] if history.len() == size => {
+                for (o, h) in out.iter_mut().zip(history.iter_mut()) {
+                    *o += a * *h;
+                    *h = *o;
+                }
+            }
+            _ => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o += predicted(coefficients, history, size, i);
+                }
+                let kept = history.len() - size;
+                history.copy_within(0..kept, size);
+                history[..size].copy_from_slice(out);
+            }
         }
-        let kept = self.history.len() - size;
-        self.history.copy_within(0..kept, size);
-        self.history[..size].copy_from_slice(out);
         self.frames += 1;
         Ok(())
     }
@@ -142,4 +174,15 @@ impl FastSequenceFilter {
         self.frames = frames;
         Ok(())
     }
+}
+
+/// The prediction x̂_e of pixel `i`: Σ_k a_k x̂_{t−1−k}(i) over the frames of `history`
+/// (newest first, `size` pixels each).
+#[inline(always)]
+fn predicted(coefficients: &[f64], history: &[f64], size: usize, i: usize) -> f64 {
+    coefficients
+        .iter()
+        .enumerate()
+        .map(|(k, a)| a * history[k * size + i])
+        .sum()
 }

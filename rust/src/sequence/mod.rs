@@ -28,30 +28,38 @@ pub(crate) fn check_model(model: &FieldModel) -> Result<()> {
     Ok(())
 }
 
-/// A step's frame (see [`check_frame`]) and output of H·W values; the count of missing pixels.
+/// A step's frame (see [`check_sizes`], [`check_pixels`]) and output of H·W values; the
+/// count of missing pixels.
 pub(crate) fn check_step(frame: &[f64], out: &[f64], size: usize) -> Result<usize> {
-    let missing = check_frame(frame, size)?;
-    if out.len() != size {
-        return Err(FieldError::Shape(format!(
-            "the output holds {} values, expected {size}",
-            out.len()
-        )));
+    check_sizes(frame, out, size)?;
+    let (mut missing, mut infinite) = (0, false);
+    for v in frame {
+        missing += usize::from(v.is_nan());
+        infinite |= v.is_infinite();
     }
+    check_pixels(infinite)?;
     Ok(missing)
 }
 
-/// Every pixel of `frame` finite or NaN (a missing pixel); its size H·W.
-fn check_frame(frame: &[f64], size: usize) -> Result<usize> {
-    if frame.len() != size {
-        return Err(FieldError::Shape(format!(
-            "the frame holds {} values, expected {size}",
-            frame.len()
-        )));
+/// A step's frame and output both of H·W values.
+pub(crate) fn check_sizes(frame: &[f64], out: &[f64], size: usize) -> Result<()> {
+    for (what, len) in [("frame", frame.len()), ("output", out.len())] {
+        if len != size {
+            return Err(FieldError::Shape(format!(
+                "the {what} holds {len} values, expected {size}"
+            )));
+        }
     }
-    if frame.iter().any(|v| v.is_infinite()) {
+    Ok(())
+}
+
+/// The error for a frame with infinite pixels (every pixel must be finite or NaN, a missing
+/// pixel).
+pub(crate) fn check_pixels(infinite: bool) -> Result<()> {
+    if infinite {
         return Err(FieldError::NonFinite(
             "the frame holds infinite pixels (NaN marks a missing pixel; ±inf is refused)".into(),
         ));
     }
-    Ok(frame.iter().filter(|v| v.is_nan()).count())
+    Ok(())
 }
