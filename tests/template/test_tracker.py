@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from kalmanfield import TemplateTracker
+from kalmanfield import TemplateTracker, match_template
 from kalmanfield.reference.template import TwinTracker
 
 SETTINGS = [
@@ -87,6 +87,24 @@ def test_reacquisition_after_the_target_leaves_and_reenters(scene):
     after = track[track.frame > first]
     true_x = np.array([path(k)[0] for k in after.frame])
     assert np.abs(after.x - true_x).max() < 1.0 and np.abs(after.y - 25).max() < 1.0
+
+
+def test_a_peak_outside_the_gate_ellipse_is_not_taken():
+    # position std 2, R = 1: S = 5 I, gate 3. The window holds positions 22..38 × 12..28;
+    # (38, 28) is in it but outside the ellipse (ν = (8, 8) shrunk to 7.5: 2·7.5²/5 = 22.5 > 9)
+    rng = np.random.default_rng(3)
+    template = rng.standard_normal((7, 7))
+    frame = 0.05 * rng.standard_normal((60, 80))
+    frame[20:27, 30:37] += template + 0.5 * rng.standard_normal((7, 7))
+    frame[28:35, 38:45] += template
+    settings = dict(process_std=0.1, measurement_std=1.0, initial_std=(2.0, 1.0, 0.1))
+    step = TemplateTracker(template, (30, 20), **settings).update(frame)
+    x, y, score = match_template(frame, template, window=step.window)
+    assert (round(x), round(y)) == (38, 28) and score > 0.99  # the window's own peak
+    assert abs(step.x_measured - 30) < 0.5 and abs(step.y_measured - 20) < 0.5
+    assert step.score < 0.95 and not step.collapsed
+    twin = TwinTracker([template], [(30, 20)], **settings).update(frame)[0]
+    np.testing.assert_allclose(twin["measurement"], (step.x_measured, step.y_measured))
 
 
 def test_window_grows_while_coasting(scene):

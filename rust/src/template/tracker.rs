@@ -6,10 +6,15 @@
 //!
 //! - The first frame is the one the initial position refers to: it is searched around that
 //!   position without a prediction step.
-//! - Window: `gate::search_window` — ± gate·√S around the predicted position, S the predicted
+//! - Window: `Gate::window` — ± gate·√S around the predicted position, S the predicted
 //!   measurement covariance; it grows with S while frames are coasted.
+//! - Validation gate: the in-window peak is the highest score among the positions inside the
+//!   gate ellipse νᵀ S⁻¹ ν ≤ gate² (ν the position's innovation, shrunk by half a pixel per
+//!   axis: `Gate::admits`); the window's corners and its refinement margin hold no
+//!   measurement.
 //! - Collapse: the in-window peak score (NCC) below `collapse` times the reference score ρ̄,
-//!   or no position to search (window off the frame, smaller than the template, all NaN).
+//!   or no position to search (window off the frame, smaller than the template, no scored
+//!   position in the gate).
 //!   ρ̄ is the running mean of accepted scores, ρ̄ ← (1 − β)ρ̄ + β·score, β = 1/10, started at
 //!   the first accepted score (the first frame's peak is accepted unless it collapses for
 //!   want of a window).
@@ -27,7 +32,7 @@
 
 use super::fragment::Template;
 use super::frame::{Frame, Window};
-use super::gate::search_window;
+use super::gate::Gate;
 use super::peak::distinctness;
 use super::region::Region;
 use super::surface::{Correlator, Match, Method};
@@ -335,19 +340,14 @@ impl TemplateTracker {
             kalman::predict(&self.model, &t.state)
         };
         let (h, w) = (t.template.h, t.template.w);
-        let window = search_window(
-            &self.model,
-            &predicted,
-            self.config.gate,
-            (h, w),
-            (frame.height, frame.width),
-        );
+        let gate = Gate::new(&self.model, &predicted, self.config.gate);
+        let window = gate.window((h, w), (frame.height, frame.width));
         let usable = window.filter(|win| win.rows() >= h && win.cols() >= w);
         let (mut found, mut patch) = (None, None);
         if let Some(win) = usable {
             let region = Region::new(frame, win, h, w)?;
             let surface = Correlator::new(&region).surface(&t.template, Method::Ncc)?;
-            found = surface.peak(self.config.subpixel);
+            found = surface.peak_where(self.config.subpixel, |x, y| gate.admits(x, y));
             if let (Some(m), Some(_)) = (found, self.config.update_template) {
                 patch = patch_at(&region, m, (h, w));
             }
