@@ -25,7 +25,12 @@
 //!   `reacquire_z` = √(2 ln M) + 1 for a surface of M positions (the typical largest of M
 //!   independent standard normal scores, plus one). The state restarts
 //!   there (zero velocity and acceleration, the initial covariance). Otherwise the frame is
-//!   coasted (prediction only).
+//!   coasted.
+//! - Lost lock: a coasted frame keeps the prediction's mean, and the prior variances of the
+//!   velocity (and acceleration), `initial_std[1..]²`, are added to the predicted ones: a
+//!   collapse is taken as a possible manoeuvre the motion model did not foresee (a reversal,
+//!   a turn), so the next gate widens by the prior's uncertainty of the motion, frame after
+//!   frame while the collapse lasts.
 //! - Template update (optional, rate α): after an accepted in-window measurement whose score
 //!   is at least ρ̄ (before its own update), the template becomes (1 − α)·template + α·patch,
 //!   the patch being the frame under the template at the rounded measured position.
@@ -190,7 +195,7 @@ pub struct Target {
 /// What one frame did to one target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
-    /// The posterior (or, on a coasted frame, the prediction).
+    /// The posterior (or, on a coasted frame, the coasted state).
     pub state: Gaussian,
     /// The in-window peak score (NaN when no window could be searched).
     pub score: f64,
@@ -447,9 +452,24 @@ impl TemplateTracker {
                 step.measurement = Some([m.x, m.y]);
                 step.reacquired = true;
             }
-            _ => target.state = local.predicted,
+            _ => {
+                target.state = self.lost(local.predicted);
+                step.state = target.state.clone();
+            }
         }
         Ok(step)
+    }
+
+    /// The coasted state of a collapsed frame (module docs, *Lost lock*): the prediction,
+    /// with the prior variances of the velocity (and acceleration) added to theirs.
+    fn lost(&self, mut predicted: Gaussian) -> Gaussian {
+        let k = self.config.motion.per_axis();
+        for axis in 0..2 {
+            for i in 1..k {
+                predicted.cov[(axis * k + i, axis * k + i)] += self.config.initial_std[i].powi(2);
+            }
+        }
+        predicted
     }
 
     /// The dynamic state as numbers: frames, then per target ρ̄ (NaN before the first),

@@ -16,7 +16,8 @@ Rules (the method page *Template tracker* states them for users):
   least collapse·ρ̄ (0 before any accepted score) and (peak − median)/(1.4826·MAD) ≥
   reacquire_z over the 64 × 64-point subsample (default √(2 ln M) + 1, M positions); the
   state restarts there with zero velocity and the initial covariance; otherwise the frame is
-  coasted;
+  coasted: the prediction, with the prior variances of the velocity (and acceleration) added
+  to theirs (lost lock);
 - template update (rate α): after an accepted in-window measurement whose score is at least
   ρ̄ (before its update), template ← (1 − α)·template + α·patch at the rounded position (if
   the patch lies in the window and has no NaN; kept if the blend is constant).
@@ -195,6 +196,9 @@ class TwinTracker:
                     mean, cov = self._start(best[0], best[1]), self.p0.copy()
                     step["reacquired"] = True
                     step["measurement"] = (best[0], best[1])
+                else:
+                    derivatives = np.arange(len(mean)) % self.d != 0
+                    cov = cov + np.diag(np.where(derivatives, np.diag(self.p0), 0.0))
             self.means[k], self.covs[k] = mean, cov
             step["mean"], step["cov"] = mean.copy(), cov.copy()
             out.append(step)
