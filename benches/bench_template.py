@@ -70,6 +70,7 @@ SPEED_NOTES = (
     "by ~1.2–1.5× when both start cold."
 )
 
+
 def interleaved(methods: dict[str, Callable[[], object]], rounds: int) -> dict[str, float]:
     """Median seconds per call, the methods timed in turn within each round, in a fresh
     (seeded) random order per round.
@@ -162,6 +163,7 @@ ACCURACY_NOTES = (
     "1, 5.0 on image crops at SNR 0.5) is no higher than that of false ones, so the "
     "threshold (5.6 here) rejects most true peaks and still admits some false ones."
 )
+
 
 def _normalised(a: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=np.float64)
