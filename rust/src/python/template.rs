@@ -1,7 +1,7 @@
 //! Binding of the search-recurrent fragment tracker's kernels (SPEC §5):
 //! `kalmanfield._core.match_template` and `kalmanfield._core.TemplateTracker`.
 
-use super::convert::{contiguous, with_dtype};
+use super::convert::{contiguous, pixel_dtype_error, untyped_array, with_dtype};
 use crate::image::Pixel;
 use crate::kalman::Gaussian;
 use crate::template::{
@@ -11,9 +11,9 @@ use crate::template::{
 use nalgebra::DMatrix;
 use numpy::{
     Element, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyUntypedArray, PyUntypedArrayMethods,
+    PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -25,31 +25,6 @@ pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// (x, y, score, surface if asked for) of a search.
 type Found<'py> = (f64, f64, f64, Option<Bound<'py, PyArray2<f64>>>);
-
-/// The frame argument as a 2-D numpy array of any dtype (the dtype is dispatched by
-/// `with_dtype!`).
-fn untyped_frame<'a, 'py>(
-    frame: &'a Bound<'py, PyAny>,
-) -> PyResult<&'a Bound<'py, PyUntypedArray>> {
-    let untyped = frame
-        .cast::<PyUntypedArray>()
-        .map_err(|_| PyTypeError::new_err("frame must be a numpy array"))?;
-    if untyped.ndim() != 2 {
-        return Err(PyValueError::new_err(format!(
-            "frame must be 2-D, got {} dimensions",
-            untyped.ndim()
-        )));
-    }
-    Ok(untyped)
-}
-
-/// The error for a frame whose dtype no kernel takes.
-fn dtype_error(untyped: &Bound<'_, PyUntypedArray>) -> PyErr {
-    PyTypeError::new_err(format!(
-        "frame dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
-        untyped.dtype()
-    ))
-}
 
 /// A `Frame` of a C-contiguous 2-D array's pixels.
 fn frame_of<'a, T: Pixel + Element>(a: &'a PyReadonlyArray2<'_, T>) -> PyResult<Frame<'a, T>> {
@@ -85,10 +60,10 @@ fn match_template<'py>(
     let method = Method::parse(method)?;
     let window = window.map(|(x0, y0, x1, y1)| Window { x0, y0, x1, y1 });
     let options = (method, subpixel, return_surface);
-    let untyped = untyped_frame(frame)?;
+    let untyped = untyped_array(frame, "frame", 2)?;
     with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
         search(py, &frame_of(&a)?, &template, window, options)
-    }, else Err(dtype_error(untyped)))
+    }, else Err(pixel_dtype_error(untyped, "frame")))
 }
 
 fn search<'py, T: Pixel>(
@@ -161,13 +136,13 @@ impl PyTemplateTracker {
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let untyped = untyped_frame(frame)?;
+        let untyped = untyped_array(frame, "frame", 2)?;
         let inner = &mut self.inner;
         with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
             let f = frame_of(&a)?;
             let steps = py.detach(|| inner.update(&f))?;
             steps_dict(py, &steps)
-        }, else Err(dtype_error(untyped)))
+        }, else Err(pixel_dtype_error(untyped, "frame")))
     }
 
     /// The dynamic state as numbers (for pickling).

@@ -40,7 +40,7 @@ impl Gate {
         }
         // νᵀ S⁻¹ ν with S⁻¹ = [[d, −b], [−c, a]] / det
         let q = (d * u * u - (b + c) * u * v + a * v * v) / det;
-        !(q > self.gate * self.gate)
+        q.is_nan() || q <= self.gate * self.gate
     }
 
     /// The frame region searched: the positions within ± gate·√S of ẑ per axis, widened to
