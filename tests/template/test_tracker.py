@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from kalmanfield import TemplateTracker
+from kalmanfield import TemplateTracker, match_template
 from kalmanfield.reference.template import TwinTracker
 
 SETTINGS = [
@@ -62,6 +62,8 @@ def test_kalman_link_equals_filterpy(scene):
             kf.P = s.covariance.copy()
         else:
             kf.predict()
+            if s.coasted:  # lost lock: the prior's velocity and acceleration variances added
+                kf.P = kf.P + np.diag(np.tile([0.0, 5.0**2, 1.0**2], 2))
         if not s.coasted and not s.reacquired:
             kf.update(np.array([s.x_measured, s.y_measured]))
         np.testing.assert_allclose(s.state, kf.x, atol=1e-9)
@@ -69,24 +71,66 @@ def test_kalman_link_equals_filterpy(scene):
     assert tracker.frame == len(frames)
 
 
-def test_reacquisition_after_the_target_leaves_and_reenters(scene):
+@pytest.mark.parametrize("initial_std, whole_frame", [(None, False), ((0.5, 0.2, 0.05), True)])
+def test_reacquisition_after_the_target_leaves_and_reenters(scene, initial_std, whole_frame):
     # leaves through the right edge (x > 69 from frame 22 on), re-enters from the left (x ≥ 0
-    # from frame 31 on)
+    # from frame 31 on). With the default prior (velocity std 5 px/frame) the lost-lock rule
+    # widens the gate to the whole frame within a few coasted frames and the target is found
+    # in it; with a tight prior the gate stays small and the whole-frame search re-acquires.
     def path(k):
         return (6 + 3.0 * k if k < 25 else 2 + 2.0 * (k - 32)), 25.0
 
     frames, template, truth = scene(n=45, path=path, snr=3.0, shape=(60, 80))
-    tracker = TemplateTracker(template, truth[0], process_std=0.05, measurement_std=0.5)
+    tracker = TemplateTracker(
+        template, truth[0], process_std=0.05, measurement_std=0.5, initial_std=initial_std
+    )
     track = tracker.track(frames)
     gone = track[(track.frame >= 22) & (track.frame < 31)]
     assert gone.coasted.all() and not gone.reacquired.any()
     back = track[track.frame >= 31]
-    assert back.reacquired.any()
-    first = back[back.reacquired].frame.iloc[0]
-    assert first <= 32
+    assert back.reacquired.any() == whole_frame
+    first = back[~back.coasted].frame.iloc[0]
+    assert first <= 32 and back[back.frame == first].reacquired.item() == whole_frame
     after = track[track.frame > first]
     true_x = np.array([path(k)[0] for k in after.frame])
     assert np.abs(after.x - true_x).max() < 1.0 and np.abs(after.y - 25).max() < 1.0
+
+
+def test_a_peak_outside_the_gate_ellipse_is_not_taken():
+    # position std 2, R = 1: S = 5 I, gate 3. The window holds positions 22..38 × 12..28;
+    # (38, 28) is in it but outside the ellipse (ν = (8, 8) shrunk to 7.5: 2·7.5²/5 = 22.5 > 9)
+    rng = np.random.default_rng(3)
+    template = rng.standard_normal((7, 7))
+    frame = 0.05 * rng.standard_normal((60, 80))
+    frame[20:27, 30:37] += template + 0.5 * rng.standard_normal((7, 7))
+    frame[28:35, 38:45] += template
+    settings = dict(process_std=0.1, measurement_std=1.0, initial_std=(2.0, 1.0, 0.1))
+    step = TemplateTracker(template, (30, 20), **settings).update(frame)
+    x, y, score = match_template(frame, template, window=step.window)
+    assert (round(x), round(y)) == (38, 28) and score > 0.99  # the window's own peak
+    assert abs(step.x_measured - 30) < 0.5 and abs(step.y_measured - 20) < 0.5
+    assert step.score < 0.95 and not step.collapsed
+    twin = TwinTracker([template], [(30, 20)], **settings).update(frame)[0]
+    np.testing.assert_allclose(twin["measurement"], (step.x_measured, step.y_measured))
+
+
+def test_a_lost_lock_adds_the_prior_motion_variances(scene):
+    frames, template, truth = scene(n=6, path=lambda k: (30.0, 20.0), snr=4.0)
+    initial = (0.5, 1.5, 0.2)
+    tracker = TemplateTracker(
+        template, truth[0], process_std=0.05, measurement_std=0.5, initial_std=initial
+    )
+    for frame in frames:
+        tracker.update(frame)
+    before = tracker.update(frames[-1]).covariance
+    blank = np.full_like(frames[0], 0.0)
+    blank[::2] = 1.0  # stripes: no match for the template anywhere
+    step = tracker.update(blank)
+    assert step.collapsed and not step.reacquired
+    f, q, _, _ = tracker.model_matrices()
+    prior = np.array(initial) ** 2 * [0, 1, 1]
+    expected = f @ before @ f.T + q + np.diag(np.tile(prior, 2))
+    np.testing.assert_allclose(step.covariance, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_window_grows_while_coasting(scene):

@@ -152,7 +152,9 @@ class TemplateTracker:
         positions (the typical largest of M independent null scores, plus one).
     initial_std : sequence of floats, optional
         Prior std of position, velocity (and acceleration); default (measurement_std,
-        5/dt, 1/dt²). Also the covariance a re-acquired track restarts with.
+        5/dt, 1/dt²). Also the covariance a re-acquired track restarts with, and the
+        velocity (acceleration) variances a coasted frame adds. Set the velocity std to the
+        expected speed: it sizes the first windows.
     subpixel : bool
         Refine the peaks (see :func:`match_template`).
 

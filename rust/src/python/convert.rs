@@ -3,9 +3,10 @@
 
 use numpy::ndarray::Dimension;
 use numpy::{
-    Element, PyReadonlyArray, PyReadwriteArray, PyReadwriteArrayDyn, PyUntypedArrayMethods,
+    Element, PyReadonlyArray, PyReadwriteArray, PyReadwriteArrayDyn, PyUntypedArray,
+    PyUntypedArrayMethods,
 };
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 /// Evaluates `$body` with `$array` bound to `$any` (a `&Bound<PyAny>`) extracted as
@@ -32,6 +33,33 @@ macro_rules! with_dtype {
     };
 }
 pub(super) use with_dtype;
+
+/// The argument `name` as a numpy array of `ndim` dimensions, any dtype (dispatched next by
+/// `with_dtype!`).
+pub(super) fn untyped_array<'a, 'py>(
+    any: &'a Bound<'py, PyAny>,
+    name: &str,
+    ndim: usize,
+) -> PyResult<&'a Bound<'py, PyUntypedArray>> {
+    let array = any
+        .cast::<PyUntypedArray>()
+        .map_err(|_| PyTypeError::new_err(format!("{name} must be a numpy array")))?;
+    if array.ndim() != ndim {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be {ndim}-D, got {} dimensions",
+            array.ndim()
+        )));
+    }
+    Ok(array)
+}
+
+/// The TypeError for an image array `name` whose dtype no pixel kernel takes.
+pub(super) fn pixel_dtype_error(array: &Bound<'_, PyUntypedArray>, name: &str) -> PyErr {
+    PyTypeError::new_err(format!(
+        "{name} dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
+        array.dtype()
+    ))
+}
 
 /// The values of an array `name`, checked C-contiguous.
 pub(super) fn contiguous<'a, T: Element, D: Dimension>(

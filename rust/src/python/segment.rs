@@ -1,15 +1,14 @@
 //! Binding of the frame segmentation (SPEC §3): `kalmanfield._core.segment` and `segment_stack`.
 
-use super::convert::{contiguous, with_dtype};
+use super::convert::{contiguous, pixel_dtype_error, untyped_array, with_dtype};
 use crate::tracking::{
     segment as segment_kernel, segment_stack as stack_kernel, Pixel, Segment, Segmentation,
     StackSegmentation,
 };
 use numpy::{
     Element, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3,
-    PyUntypedArray, PyUntypedArrayMethods,
+    PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -34,28 +33,15 @@ fn segment<'py>(
     min_area: usize,
     connectivity: u8,
 ) -> PyResult<SegmentArrays<'py>> {
-    let array = frame
-        .cast::<PyUntypedArray>()
-        .map_err(|_| PyTypeError::new_err("frame must be a numpy array"))?;
-    let shape = match array.shape() {
-        &[h, w] => [h, w],
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "frame must be 2-D, got {} dimensions",
-                other.len()
-            )))
-        }
-    };
+    let array = untyped_array(frame, "frame", 2)?;
+    let shape = [array.shape()[0], array.shape()[1]];
     let into_arrays = |s: Segmentation| -> PyResult<SegmentArrays<'py>> {
         let labels = PyArray1::from_vec(py, s.labels).reshape(shape)?;
         Ok((table(py, &s.segments)?, labels))
     };
     with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
         into_arrays(kernel(py, &a, threshold, min_area, connectivity)?)
-    }, else Err(PyTypeError::new_err(format!(
-        "frame dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
-        array.dtype()
-    ))))
+    }, else Err(pixel_dtype_error(array, "frame")))
 }
 
 /// Runs the kernel on the array's pixels with the GIL released.
@@ -85,18 +71,8 @@ fn segment_stack<'py>(
     min_area: usize,
     connectivity: u8,
 ) -> PyResult<StackArrays<'py>> {
-    let array = stack
-        .cast::<PyUntypedArray>()
-        .map_err(|_| PyTypeError::new_err("stack must be a numpy array"))?;
-    let shape = match array.shape() {
-        &[f, h, w] => [f, h, w],
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "stack must be 3-D, got {} dimensions",
-                other.len()
-            )))
-        }
-    };
+    let array = untyped_array(stack, "stack", 3)?;
+    let shape = [array.shape()[0], array.shape()[1], array.shape()[2]];
     let into_arrays = |s: StackSegmentation| -> PyResult<StackArrays<'py>> {
         let frame_of: Vec<i64> = s
             .segments
@@ -115,10 +91,7 @@ fn segment_stack<'py>(
         let frames =
             py.detach(|| stack_kernel(values, f, h, w, threshold, min_area, connectivity))?;
         into_arrays(frames)
-    }, else Err(PyTypeError::new_err(format!(
-        "stack dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
-        array.dtype()
-    ))))
+    }, else Err(pixel_dtype_error(array, "stack")))
 }
 
 /// A column name and how to read it off a segment.

@@ -1,6 +1,7 @@
 //! Binding of the search-recurrent fragment tracker's kernels (SPEC §5):
 //! `kalmanfield._core.match_template` and `kalmanfield._core.TemplateTracker`.
 
+use super::convert::{contiguous, pixel_dtype_error, untyped_array, with_dtype};
 use crate::image::Pixel;
 use crate::kalman::Gaussian;
 use crate::template::{
@@ -10,9 +11,9 @@ use crate::template::{
 use nalgebra::DMatrix;
 use numpy::{
     Element, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyUntypedArray, PyUntypedArrayMethods,
+    PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -25,45 +26,10 @@ pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// (x, y, score, surface if asked for) of a search.
 type Found<'py> = (f64, f64, f64, Option<Bound<'py, PyArray2<f64>>>);
 
-/// Calls `$body` with `$frame` bound to a `Frame` of the array's pixels (uint8, uint16,
-/// float32 or float64, 2-D, C-contiguous); a TypeError for any other dtype.
-macro_rules! with_frame {
-    ($array:expr, |$frame:ident| $body:expr) => {{
-        let array = $array;
-        let untyped = array
-            .cast::<PyUntypedArray>()
-            .map_err(|_| PyTypeError::new_err("frame must be a numpy array"))?;
-        if untyped.ndim() != 2 {
-            return Err(PyValueError::new_err(format!(
-                "frame must be 2-D, got {} dimensions",
-                untyped.ndim()
-            )));
-        }
-        macro_rules! arm {
-            ($t:ty) => {
-                if let Ok(a) = array.extract::<PyReadonlyArray2<$t>>() {
-                    let (h, w) = (a.shape()[0], a.shape()[1]);
-                    let pixels = frame_pixels(&a)?;
-                    let $frame = Frame::new(pixels, h, w)?;
-                    return $body;
-                }
-            };
-        }
-        arm!(u8);
-        arm!(u16);
-        arm!(f32);
-        arm!(f64);
-        Err(PyTypeError::new_err(format!(
-            "frame dtype must be uint8, uint16, float32 or float64 (native byte order), got {}",
-            untyped.dtype()
-        )))
-    }};
-}
-
-/// The pixels of a C-contiguous frame.
-pub(super) fn frame_pixels<'a, T: Element>(a: &'a PyReadonlyArray2<'_, T>) -> PyResult<&'a [T]> {
-    a.as_slice()
-        .map_err(|_| PyValueError::new_err("frame must be C-contiguous"))
+/// A `Frame` of a C-contiguous 2-D array's pixels.
+fn frame_of<'a, T: Pixel + Element>(a: &'a PyReadonlyArray2<'_, T>) -> PyResult<Frame<'a, T>> {
+    let (h, w) = (a.shape()[0], a.shape()[1]);
+    Ok(Frame::new(contiguous(a, "frame")?, h, w)?)
 }
 
 /// A template from a 2-D float64 array.
@@ -94,7 +60,10 @@ fn match_template<'py>(
     let method = Method::parse(method)?;
     let window = window.map(|(x0, y0, x1, y1)| Window { x0, y0, x1, y1 });
     let options = (method, subpixel, return_surface);
-    with_frame!(frame, |f| search(py, &f, &template, window, options))
+    let untyped = untyped_array(frame, "frame", 2)?;
+    with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
+        search(py, &frame_of(&a)?, &template, window, options)
+    }, else Err(pixel_dtype_error(untyped, "frame")))
 }
 
 fn search<'py, T: Pixel>(
@@ -167,11 +136,13 @@ impl PyTemplateTracker {
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let untyped = untyped_array(frame, "frame", 2)?;
         let inner = &mut self.inner;
-        with_frame!(frame, |f| {
+        with_dtype!(frame, PyReadonlyArray2<u8, u16, f32, f64>, |a| {
+            let f = frame_of(&a)?;
             let steps = py.detach(|| inner.update(&f))?;
             steps_dict(py, &steps)
-        })
+        }, else Err(pixel_dtype_error(untyped, "frame")))
     }
 
     /// The dynamic state as numbers (for pickling).

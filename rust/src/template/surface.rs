@@ -87,6 +87,28 @@ impl Surface {
         let p = peak_at(&self.values, (self.rows, self.cols), self.best?, subpixel);
         Some(Match::at(&p, &self.window))
     }
+
+    /// The highest non-NaN score among the positions whose frame top-left (x, y) `admits`
+    /// accepts (the first in raster order on ties), refined on the whole surface; None when
+    /// no such position has a score.
+    pub(crate) fn peak_where(
+        &self,
+        subpixel: bool,
+        admits: impl Fn(f64, f64) -> bool,
+    ) -> Option<Match> {
+        let mut best: Option<(usize, usize, f64)> = None;
+        for (r, row) in self.values.chunks(self.cols).enumerate() {
+            let y = (self.window.y0 + r) as f64;
+            for (c, &v) in row.iter().enumerate() {
+                let higher = !v.is_nan() && best.is_none_or(|(_, _, b)| v > b);
+                if higher && admits((self.window.x0 + c) as f64, y) {
+                    best = Some((c, r, v));
+                }
+            }
+        }
+        let p = peak_at(&self.values, (self.rows, self.cols), best?, subpixel);
+        Some(Match::at(&p, &self.window))
+    }
 }
 
 /// A found position: the template's top-left (x, y) in the frame and its score.

@@ -6,10 +6,15 @@
 //!
 //! - The first frame is the one the initial position refers to: it is searched around that
 //!   position without a prediction step.
-//! - Window: `gate::search_window` — ± gate·√S around the predicted position, S the predicted
+//! - Window: `Gate::window` — ± gate·√S around the predicted position, S the predicted
 //!   measurement covariance; it grows with S while frames are coasted.
+//! - Validation gate: the in-window peak is the highest score among the positions inside the
+//!   gate ellipse νᵀ S⁻¹ ν ≤ gate² (ν the position's innovation, shrunk by half a pixel per
+//!   axis: `Gate::admits`); the window's corners and its refinement margin hold no
+//!   measurement.
 //! - Collapse: the in-window peak score (NCC) below `collapse` times the reference score ρ̄,
-//!   or no position to search (window off the frame, smaller than the template, all NaN).
+//!   or no position to search (window off the frame, smaller than the template, no scored
+//!   position in the gate).
 //!   ρ̄ is the running mean of accepted scores, ρ̄ ← (1 − β)ρ̄ + β·score, β = 1/10, started at
 //!   the first accepted score (the first frame's peak is accepted unless it collapses for
 //!   want of a window).
@@ -20,14 +25,19 @@
 //!   `reacquire_z` = √(2 ln M) + 1 for a surface of M positions (the typical largest of M
 //!   independent standard normal scores, plus one). The state restarts
 //!   there (zero velocity and acceleration, the initial covariance). Otherwise the frame is
-//!   coasted (prediction only).
+//!   coasted.
+//! - Lost lock: a coasted frame keeps the prediction's mean, and the prior variances of the
+//!   velocity (and acceleration), `initial_std[1..]²`, are added to the predicted ones: a
+//!   collapse is taken as a possible manoeuvre the motion model did not foresee (a reversal,
+//!   a turn), so the next gate widens by the prior's uncertainty of the motion, frame after
+//!   frame while the collapse lasts.
 //! - Template update (optional, rate α): after an accepted in-window measurement whose score
 //!   is at least ρ̄ (before its own update), the template becomes (1 − α)·template + α·patch,
 //!   the patch being the frame under the template at the rounded measured position.
 
 use super::fragment::Template;
 use super::frame::{Frame, Window};
-use super::gate::search_window;
+use super::gate::Gate;
 use super::peak::distinctness;
 use super::region::Region;
 use super::surface::{Correlator, Match, Method};
@@ -185,7 +195,7 @@ pub struct Target {
 /// What one frame did to one target.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
-    /// The posterior (or, on a coasted frame, the prediction).
+    /// The posterior (or, on a coasted frame, the coasted state).
     pub state: Gaussian,
     /// The in-window peak score (NaN when no window could be searched).
     pub score: f64,
@@ -335,19 +345,14 @@ impl TemplateTracker {
             kalman::predict(&self.model, &t.state)
         };
         let (h, w) = (t.template.h, t.template.w);
-        let window = search_window(
-            &self.model,
-            &predicted,
-            self.config.gate,
-            (h, w),
-            (frame.height, frame.width),
-        );
+        let gate = Gate::new(&self.model, &predicted, self.config.gate);
+        let window = gate.window((h, w), (frame.height, frame.width));
         let usable = window.filter(|win| win.rows() >= h && win.cols() >= w);
         let (mut found, mut patch) = (None, None);
         if let Some(win) = usable {
             let region = Region::new(frame, win, h, w)?;
             let surface = Correlator::new(&region).surface(&t.template, Method::Ncc)?;
-            found = surface.peak(self.config.subpixel);
+            found = surface.peak_where(self.config.subpixel, |x, y| gate.admits(x, y));
             if let (Some(m), Some(_)) = (found, self.config.update_template) {
                 patch = patch_at(&region, m, (h, w));
             }
@@ -447,9 +452,24 @@ impl TemplateTracker {
                 step.measurement = Some([m.x, m.y]);
                 step.reacquired = true;
             }
-            _ => target.state = local.predicted,
+            _ => {
+                target.state = self.lost(local.predicted);
+                step.state = target.state.clone();
+            }
         }
         Ok(step)
+    }
+
+    /// The coasted state of a collapsed frame (module docs, *Lost lock*): the prediction,
+    /// with the prior variances of the velocity (and acceleration) added to theirs.
+    fn lost(&self, mut predicted: Gaussian) -> Gaussian {
+        let k = self.config.motion.per_axis();
+        for axis in 0..2 {
+            for i in 1..k {
+                predicted.cov[(axis * k + i, axis * k + i)] += self.config.initial_std[i].powi(2);
+            }
+        }
+        predicted
     }
 
     /// The dynamic state as numbers: frames, then per target ρ̄ (NaN before the first),

@@ -8,13 +8,16 @@ Rules (the method page *Template tracker* states them for users):
 - first frame: searched around the initial position without a prediction;
 - window: the positions within ± gate·√S of the predicted top-left (S = H P⁻ Hᵀ + R), to
   whole pixels plus one on each side, plus the template, cut to the frame;
+- validation gate: the in-window peak is the highest score among the positions p with
+  νᵀ S⁻¹ ν ≤ gate², ν = p − ẑ shrunk by ½ per axis towards 0 (ẑ the predicted top-left);
 - collapse: no searchable position, or the in-window NCC peak below collapse·ρ̄, ρ̄ the running
   mean of accepted scores (ρ̄ ← 0.9 ρ̄ + 0.1 s; the first accepted score starts it);
 - re-acquisition: after a collapse, the whole-frame peak is accepted when its score is at
   least collapse·ρ̄ (0 before any accepted score) and (peak − median)/(1.4826·MAD) ≥
   reacquire_z over the 64 × 64-point subsample (default √(2 ln M) + 1, M positions); the
   state restarts there with zero velocity and the initial covariance; otherwise the frame is
-  coasted;
+  coasted: the prediction, with the prior variances of the velocity (and acceleration) added
+  to theirs (lost lock);
 - template update (rate α): after an accepted in-window measurement whose score is at least
   ρ̄ (before its update), template ← (1 − α)·template + α·patch at the rounded position (if
   the patch lies in the window and has no NaN; kept if the blend is constant).
@@ -111,11 +114,20 @@ class TwinTracker:
         m[0], m[self.d] = x, y
         return m
 
-    def _peak(self, frame, template, window):
+    def _peak(self, frame, template, window, gate=None):
+        """The (gated) peak of the surface over `window`; `gate` = (ẑ, S)."""
         s = surface(frame, template, window, "ncc")
-        if np.isnan(s).all():
+        candidates = s.copy()
+        if gate is not None:
+            centre, cov = gate
+            ys, xs = np.indices(s.shape)
+            nu = np.stack([xs + window[0] - centre[0], ys + window[1] - centre[1]], axis=-1)
+            nu = np.sign(nu) * np.maximum(np.abs(nu) - 0.5, 0.0)
+            q = np.einsum("...i,ij,...j->...", nu, np.linalg.inv(cov), nu)
+            candidates[q > self.gate**2] = np.nan
+        if np.isnan(candidates).all():
             return None, s
-        iy, ix = divmod(int(np.nanargmax(s)), s.shape[1])
+        iy, ix = divmod(int(np.nanargmax(candidates)), s.shape[1])
         dx, dy = refine_peak(s, ix, iy) if self.subpixel else (0.0, 0.0)
         x0, y0 = window[0], window[1]
         return (x0 + ix + dx, y0 + iy + dy, float(s[iy, ix])), s
@@ -151,7 +163,8 @@ class TwinTracker:
             window = self._window(mean, cov, frame.shape, t.shape)
             found = None
             if window is not None and window[3] - window[1] >= h and window[2] - window[0] >= w:
-                found, _ = self._peak(frame, t, window)
+                gate = (self.h @ mean, self.h @ cov @ self.h.T + self.r)
+                found, _ = self._peak(frame, t, window, gate)
             ref = self.reference[k]
             collapsed = found is None or (ref is not None and found[2] < self.collapse * ref)
             step = dict(
@@ -183,6 +196,9 @@ class TwinTracker:
                     mean, cov = self._start(best[0], best[1]), self.p0.copy()
                     step["reacquired"] = True
                     step["measurement"] = (best[0], best[1])
+                else:
+                    derivatives = np.arange(len(mean)) % self.d != 0
+                    cov = cov + np.diag(np.where(derivatives, np.diag(self.p0), 0.0))
             self.means[k], self.covs[k] = mean, cov
             step["mean"], step["cov"] = mean.copy(), cov.copy()
             out.append(step)
