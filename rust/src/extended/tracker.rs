@@ -94,18 +94,47 @@ impl GroupTracker {
     }
 
     /// Starts a group at the given segments with known velocity (stage 1's answer, step 4).
-    pub fn seed(&mut self, segments: &[Measurement], velocity: [f64; 2]) -> Result<u64> {
+    /// `length` is the number of observations stage 1 already made of the object (≥ 1): the
+    /// seeded sequences continue its trajectory, so they count that many observations
+    /// (features joined, members at once when longer than ν + 1), their features with the
+    /// variance of one observation.
+    pub fn seed(
+        &mut self,
+        segments: &[Measurement],
+        velocity: [f64; 2],
+        length: usize,
+    ) -> Result<u64> {
         check(segments)?;
         if !(velocity[0].is_finite() && velocity[1].is_finite()) {
             return Err(FieldError::NonFinite("seed velocity is not finite".into()));
+        }
+        if velocity[0].abs() > 1e12 || velocity[1].abs() > 1e12 {
+            return Err(FieldError::InvalidParameter(
+                "seed velocity beyond 1e12 in magnitude".into(),
+            ));
+        }
+        if !(1..=1 << 40).contains(&length) {
+            return Err(FieldError::InvalidParameter(format!(
+                "seed length must be 1..=2**40, got {length}"
+            )));
         }
         let mut shared = [[0.0; DIM]; 2];
         shared[0][1] = velocity[0];
         shared[1][1] = velocity[1];
         let id = self.new_group(shared, segments.first().map_or([0.0; 4], |z| z.bbox));
         let g = self.groups.len() - 1;
+        let feature_var = [
+            self.config.amplitude_std.powi(2),
+            self.config.log_area_std.powi(2),
+        ];
         for z in segments {
             self.start_sequence(g, z, true);
+            if length > 1 {
+                if let Some(s) = self.groups[g].sequences.last_mut() {
+                    s.length = length;
+                    s.feature_var = feature_var;
+                }
+            }
         }
         Ok(id)
     }

@@ -173,10 +173,18 @@ impl PyGroupTracker {
         Ok(out)
     }
 
-    /// Starts a group at the given segments ((m, 8) array) with a known velocity (vx, vy).
-    fn seed(&mut self, segments: PyReadonlyArray2<'_, f64>, vx: f64, vy: f64) -> PyResult<u64> {
+    /// Starts a group at the given segments ((m, 8) array) with a known velocity (vx, vy)
+    /// and the number of observations stage 1 made of the object; returns the group id.
+    #[pyo3(signature = (segments, vx, vy, length=1))]
+    fn seed(
+        &mut self,
+        segments: PyReadonlyArray2<'_, f64>,
+        vx: f64,
+        vy: f64,
+        length: usize,
+    ) -> PyResult<u64> {
         let z = measurements(&segments)?;
-        Ok(self.inner.seed(&z, [vx, vy])?)
+        Ok(self.inner.seed(&z, [vx, vy], length)?)
     }
 
     /// Frames processed.

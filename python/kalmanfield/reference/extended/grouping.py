@@ -96,6 +96,24 @@ class GroupTracker:
         self.next_group = 0
         self.next_sequence = 0
 
+    def seed(self, segments: np.ndarray, vx: float, vy: float, length: int = 1) -> int:
+        """A group at `segments` with the shared velocity (vx, vy); its sequences count
+        `length` observations (stage 1's), features with one observation's variance."""
+        z_all = np.asarray(segments, dtype=float).reshape(-1, 8)
+        shared = np.zeros((2, DIM))
+        shared[:, 1] = [vx, vy]
+        g = Group(self.next_group, shared, bbox=z_all[0, 4:8].copy() if len(z_all) else np.zeros(4))
+        self.next_group += 1
+        self.groups.append(g)
+        for z in z_all:
+            s = self._start(z, g.shared)
+            if length > 1:
+                s.length = length
+                s.feature_var = self._feature_std() ** 2
+            g.sequences.append(s)
+            g.bbox = self._union(g.bbox, z[4:8])
+        return g.id
+
     # -- one sequence ------------------------------------------------------------------------
     def _feature_std(self) -> np.ndarray:
         return np.array([self.c["amplitude_std"], self.c["log_area_std"]])
