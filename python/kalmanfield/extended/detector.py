@@ -15,7 +15,14 @@ from .. import _core
 from .._validation import positive_float, positive_int, probability, real_number
 from ..tracking import BranchingTracker
 from .detected import DetectedObject
-from .frames import FrameCheck, background_level, box_smooth, noise_level, segment_frame
+from .frames import (
+    FrameCheck,
+    background_level,
+    box_mean,
+    box_smooth,
+    noise_level,
+    segment_frame,
+)
 from .options import DetectorOptions
 
 __all__ = ["MovingObjectDetector", "detect_moving_objects"]
@@ -155,11 +162,12 @@ class MovingObjectDetector:
                 raise ValueError(
                     "the noise std estimated from the first frame is 0: give noise_std"
                 )
-        k = self._options.smooth
-        smoothed = box_smooth(image, k)
+        smoothed = box_smooth(image, self._options.smooth)
+        if self._options.background_width:  # a textured background: subtract its local level
+            smoothed = smoothed - box_mean(smoothed, self._options.background_width)
         threshold = self._threshold
         if threshold is None:
-            threshold = background_level(smoothed) + self._options.threshold_k * self._noise_std / k
+            threshold = self._auto_threshold(smoothed)
         table, labels, label_image = segment_frame(
             smoothed, threshold, self._options.min_area, self._options.connectivity
         )
@@ -172,6 +180,12 @@ class MovingObjectDetector:
         else:
             self._update_groups(self._core, table, labels, label_image)
         self._frame += 1
+
+    def _auto_threshold(self, smoothed: np.ndarray) -> float:
+        """median of the smoothed frame + threshold_k × σ / smooth (the white noise's std
+        after the box mean)."""
+        spread = self._noise_std / self._options.smooth
+        return background_level(smoothed) + self._options.threshold_k * spread
 
     def _start(self, table: np.ndarray) -> None:
         if self._mode == "auto":
@@ -217,12 +231,18 @@ class MovingObjectDetector:
                 )
         member = answer["segment_member"]
         for row in answer["groups"]:
-            if row[5] == 0:
-                continue
             gid = int(row[0])
+            held = answer["segment_group"] == gid
+            if row[5] > 0:
+                chosen = np.flatnonzero(member & held)
+            elif gid in self._records and held.any():
+                # detected before, its fragments restructured: it stays detected (its image:
+                # the segments its group holds)
+                chosen = np.flatnonzero(held)
+            else:
+                continue
             rec = self._records.setdefault(gid, _Records())
             rec.track.append([self._frame, *row[1:5]])
-            chosen = np.flatnonzero(member & (answer["segment_group"] == gid))
             parts = []
             for r in chosen:
                 z = table[r]
@@ -323,10 +343,8 @@ class MovingObjectDetector:
             return self._point_objects()
         out = self._point_objects() if self._mode == "staged" else []
         for gid, rec in self._records.items():
-            track = pd.DataFrame(rec.track, columns=_TRACK_COLUMNS).astype({"frame": np.int64})
-            fragments = pd.DataFrame(rec.fragments, columns=_FRAGMENT_COLUMNS).astype(
-                {"frame": np.int64, "fragment": np.int64}
-            )
+            track = _frame_of(rec.track, _TRACK_COLUMNS, 1)
+            fragments = _frame_of(rec.fragments, _FRAGMENT_COLUMNS, 2)
             out.append(
                 DetectedObject(
                     track,
@@ -361,10 +379,9 @@ class MovingObjectDetector:
                     "vy": t["y_d1"].to_numpy(),
                 }
             )
-            fragments = pd.DataFrame(
-                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows],
-                columns=_FRAGMENT_COLUMNS,
-            ).astype({"frame": np.int64, "fragment": np.int64})
+            fragments = _frame_of(
+                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows], _FRAGMENT_COLUMNS, 2
+            )
             pixels = {int(r[0]): r[5] for r in rows}
             out.append(
                 DetectedObject(
@@ -396,6 +413,16 @@ class MovingObjectDetector:
 
     def __repr__(self) -> str:
         return f"MovingObjectDetector(mode={self._mode!r}, frames={self._frame})"
+
+
+def _frame_of(rows: list[list[float]], columns: list[str], n_int: int) -> pd.DataFrame:
+    """A DataFrame of `rows`, its first `n_int` columns int64, the others float64 (built
+    column by column: far cheaper than a DataFrame of lists and ``astype``)."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, len(columns))
+    data = {
+        name: a[:, k].astype(np.int64) if k < n_int else a[:, k] for k, name in enumerate(columns)
+    }
+    return pd.DataFrame(data)
 
 
 def _ranked(objects: list[DetectedObject]) -> list[DetectedObject]:
