@@ -466,8 +466,10 @@ def detect_moving_objects(
         Segmentation threshold on the smoothed frame. When None, per frame: the median of the
         smoothed frame (of every 4th row and column beyond 256² pixels) + ``threshold_k`` ×
         σ / ``smooth`` (the noise std after the ``smooth`` × ``smooth`` box mean).
+        On a textured background give ``background_width`` (below).
     **options
-        Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, min_area=3,
+        Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, background_width=0 (w > 0:
+        subtract the w × w local mean of the smoothed frame first), min_area=3,
         connectivity=8, order=1, position_std=1.0, process_std, amplitude_std,
         log_area_std=0.5, feature_drift=0.5, initial_speed_std, gate_margin=2.0,
         min_speed, velocity_tolerance, max_misses=2); see the method page.
