@@ -282,9 +282,9 @@ settings were chosen on 120 runs per cell of another seed (7) among five candida
 (`crossing_scene` in the script: three vertical stripes per target with 1-px gaps, each dark
 in a frame with probability p_vanish; 96 × 96, 24 frames, SNR 5, P_f = 0.3), scored by
 motmetrics (object centre against true centre, 6-px gate: half a target), summed over the
-scenes (IDF1 and MOTA: mean over the scenes). "x": two targets on crossing paths, at the crossing 8 frames
-apart; "passing": two targets pass each other 16 px apart while a third crosses both paths;
-"head-on": two targets meet on one line (they occlude each other).
+scenes (IDF1 and MOTA: mean over the scenes). "x": two targets on crossing paths, at the
+crossing 8 frames apart; "passing": two targets pass each other 16 px apart while a third
+crosses both paths; "head-on": two targets meet on one line (they occlude each other).
 
 {ids}
 
