@@ -184,6 +184,7 @@ class MovingObjectDetector:
     def _auto_threshold(self, smoothed: np.ndarray) -> float:
         """median of the smoothed frame + threshold_k × σ / smooth (the white noise's std
         after the box mean)."""
+        assert self._noise_std is not None
         spread = self._noise_std / self._options.smooth
         return background_level(smoothed) + self._options.threshold_k * spread
 

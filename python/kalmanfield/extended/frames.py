@@ -38,14 +38,17 @@ class FrameCheck:
             )
         if min(raw.shape) < 2:
             raise ValueError(f"frames must be at least 2 × 2, got {raw.shape}")
-        out = np.array(raw, dtype=np.float64)
-        if np.isfinite(out).all():  # one pass in the common case
+        out = np.asarray(raw, dtype=np.float64)  # read only: copied below if changed
+        if np.isfinite(out.sum()):  # all finite (one reduction; an overflow checks below)
             return out
         if np.isinf(out).any():
             raise ValueError(f"frame {index} holds an infinite value")
         missing = np.isnan(out)
+        if not missing.any():
+            return out  # finite values whose sum overflowed
         if missing.all():
             raise ValueError(f"frame {index} has no finite pixel")
+        out = out.copy()
         out[missing] = np.median(out[~missing])  # missing: never foreground on its own
         return out
 
