@@ -125,8 +125,11 @@ class MovingObjectDetector:
 
     @property
     def mode(self) -> str:
-        """The mode: "point", "extended", or "staged" once the first frame decided "auto"
-        (stage 1, then stage 2 seeded with each confirmed trajectory whose segment grows)."""
+        """The mode: "point", "extended" or "staged" ("auto" once decided by the first frame).
+
+        "staged": stage 1, then stage 2 seeded with each confirmed trajectory whose segment
+        grows beyond points.
+        """
         return self._mode
 
     @property
