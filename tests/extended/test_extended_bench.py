@@ -19,5 +19,8 @@ def test_quick_mode_runs():
         env=env,
     )
     assert run.returncode == 0, run.stdout + run.stderr
-    assert run.stdout.count("| SNR | P_f | runs |") == 4
+    assert run.stdout.count("| SNR | P_f | runs |") == 5
+    assert (
+        "| scene | p_vanish | scenes |" in run.stdout or "motmetrics is not installed" in run.stdout
+    )
     assert "| scene | frames | segment alone" in run.stdout

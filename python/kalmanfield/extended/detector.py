@@ -15,7 +15,14 @@ from .. import _core
 from .._validation import positive_float, positive_int, probability, real_number
 from ..tracking import BranchingTracker
 from .detected import DetectedObject
-from .frames import FrameCheck, background_level, box_smooth, noise_level, segment_frame
+from .frames import (
+    FrameCheck,
+    background_level,
+    box_mean,
+    box_smooth,
+    noise_level,
+    segment_frame,
+)
 from .options import DetectorOptions
 
 __all__ = ["MovingObjectDetector", "detect_moving_objects"]
@@ -106,8 +113,10 @@ class MovingObjectDetector:
         self._check = FrameCheck()
         self._frame = 0
         self._core: Any = None  # _core.GroupTracker or BranchingTracker, made at frame 0
+        self._groups: Any = None  # "auto" staged: the seeded stage-2 GroupTracker
         self._records: dict[int, _Records] = {}
         self._points: list[tuple[int, float, float, float, float, np.ndarray]] = []
+        self._promoted: set[int] = set()  # stage-1 detections handed over to stage 2
 
     @property
     def frame(self) -> int:
@@ -116,7 +125,11 @@ class MovingObjectDetector:
 
     @property
     def mode(self) -> str:
-        """The mode: "point" or "extended" once the first frame decided "auto"."""
+        """The mode: "point", "extended" or "staged" ("auto" once decided by the first frame).
+
+        "staged": stage 1, then stage 2 seeded with each confirmed trajectory whose segment
+        grows beyond points.
+        """
         return self._mode
 
     @property
@@ -152,11 +165,12 @@ class MovingObjectDetector:
                 raise ValueError(
                     "the noise std estimated from the first frame is 0: give noise_std"
                 )
-        k = self._options.smooth
-        smoothed = box_smooth(image, k)
+        smoothed = box_smooth(image, self._options.smooth)
+        if self._options.background_width:  # a textured background: subtract its local level
+            smoothed = smoothed - box_mean(smoothed, self._options.background_width)
         threshold = self._threshold
         if threshold is None:
-            threshold = background_level(smoothed) + self._options.threshold_k * self._noise_std / k
+            threshold = self._auto_threshold(smoothed)
         table, labels, label_image = segment_frame(
             smoothed, threshold, self._options.min_area, self._options.connectivity
         )
@@ -164,22 +178,33 @@ class MovingObjectDetector:
             self._start(table)
         if self._mode == "point":
             self._update_points(table, labels, label_image)
+        elif self._mode == "staged":
+            self._update_staged(table, labels, label_image)
         else:
-            self._update_groups(table, labels, label_image)
+            self._update_groups(self._core, table, labels, label_image)
         self._frame += 1
+
+    def _auto_threshold(self, smoothed: np.ndarray) -> float:
+        """median of the smoothed frame + threshold_k × σ / smooth (the white noise's std
+        after the box mean)."""
+        assert self._noise_std is not None
+        spread = self._noise_std / self._options.smooth
+        return background_level(smoothed) + self._options.threshold_k * spread
 
     def _start(self, table: np.ndarray) -> None:
         if self._mode == "auto":
             extended = len(table) > 0 and float(np.max(table[:, 3])) > POINT_AREA
-            self._mode = "extended" if extended else "point"
+            self._mode = "extended" if extended else "staged"
         assert self._noise_std is not None
         config = self._options.core_config(
             dt=self._dt,
             noise_std=self._noise_std,
             confidence=self._confidence,
             memory=self._memory,
-            seed_groups=True,
+            seed_groups=self._mode == "extended",
         )
+        if self._mode == "staged":
+            self._groups = _core.GroupTracker(**config)
         if self._mode == "extended":
             self._core = _core.GroupTracker(**config)
         else:
@@ -200,9 +225,9 @@ class MovingObjectDetector:
         return ((rr + y0) * label_image.shape[1] + cc + x0).astype(np.int64)
 
     def _update_groups(
-        self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
-    ) -> None:
-        answer = self._core.step(table)
+        self, core: Any, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
+    ) -> dict[str, Any]:
+        answer: dict[str, Any] = core.step(table)
         for absorbed, into in answer["merged"]:
             if int(absorbed) in self._records:
                 self._records.setdefault(int(into), _Records()).absorb(
@@ -210,12 +235,18 @@ class MovingObjectDetector:
                 )
         member = answer["segment_member"]
         for row in answer["groups"]:
-            if row[5] == 0:
-                continue
             gid = int(row[0])
+            held = answer["segment_group"] == gid
+            if row[5] > 0:
+                chosen = np.flatnonzero(member & held)
+            elif gid in self._records and held.any():
+                # detected before, its fragments restructured: it stays detected (its image:
+                # the segments its group holds)
+                chosen = np.flatnonzero(held)
+            else:
+                continue
             rec = self._records.setdefault(gid, _Records())
             rec.track.append([self._frame, *row[1:5]])
-            chosen = np.flatnonzero(member & (answer["segment_group"] == gid))
             parts = []
             for r in chosen:
                 z = table[r]
@@ -224,6 +255,7 @@ class MovingObjectDetector:
                 )
                 parts.append(self._pixels(label_image, z, int(labels[r])))
             rec.pixels[self._frame] = np.sort(np.concatenate(parts))
+        return answer
 
     def _update_points(
         self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
@@ -232,6 +264,74 @@ class MovingObjectDetector:
         for r, z in enumerate(table):
             pixels = self._pixels(label_image, z, int(labels[r]))
             self._points.append((self._frame, z[0], z[1], z[2], z[3], pixels))
+
+    def _update_staged(
+        self, table: np.ndarray, labels: np.ndarray, label_image: np.ndarray
+    ) -> None:
+        """Mode "auto" from a point-like first frame: stage 2 takes the segments of the
+        objects already handed over, stage 1 the others; a confirmed stage-1 trajectory whose
+        segment of this frame exceeds POINT_AREA seeds a stage-2 group (method page, §3.4)."""
+        answer = self._update_groups(self._groups, table, labels, label_image)
+        free = np.flatnonzero(answer["segment_group"] < 0)
+        first = len(self._points)
+        self._update_points(table[free], labels[free], label_image)
+        grown = [k for k, r in enumerate(free) if table[r, 3] > POINT_AREA]
+        if not grown:
+            return
+        tracks = self._core.tracks()
+        now = tracks[(tracks["frame"] == self._frame) & ~tracks["coasted"]]
+        taken = np.zeros(len(table), dtype=bool)
+        for k in grown:
+            hit = now[now["detection"] == first + k]
+            r = int(free[k])
+            if hit.empty or taken[r]:
+                continue
+            t = tracks[(tracks["particle"] == hit["particle"].iloc[0]) & ~tracks["coasted"]]
+            members = self._seed_members(table, free, r, taken)
+            taken[members] = True
+            gid = self._groups.seed(
+                table[members], float(hit["x_d1"].iloc[0]), float(hit["y_d1"].iloc[0]), len(t)
+            )
+            self._hand_over(gid, t, table, labels, label_image, members)
+
+    def _seed_members(
+        self, table: np.ndarray, free: np.ndarray, r: int, taken: np.ndarray
+    ) -> np.ndarray:
+        """Segment r and the free segments whose centroid lies in its box grown by the gate
+        margin (the fragments of the object in its first stage-2 frame)."""
+        x0, y0, x1, y1 = table[r, 4:8]
+        m = self._options.gate_margin
+        z = table[free]
+        near = (z[:, 0] >= x0 - m) & (z[:, 0] <= x1 + m) & (z[:, 1] >= y0 - m) & (z[:, 1] <= y1 + m)
+        chosen = free[near & ~taken[free]]
+        return np.union1d(chosen, [r]).astype(np.int64)
+
+    def _hand_over(
+        self,
+        gid: int,
+        t: pd.DataFrame,
+        table: np.ndarray,
+        labels: np.ndarray,
+        label_image: np.ndarray,
+        members: np.ndarray,
+    ) -> None:
+        """The seeded group's record starts with its stage-1 trajectory (track, fragments,
+        pixels) and this frame's seed segments."""
+        rec = self._records.setdefault(int(gid), _Records())
+        for row in t.itertuples():
+            d = int(row.detection)
+            self._promoted.add(d)
+            p = self._points[d]
+            rec.track.append([int(row.frame), row.x, row.y, row.x_d1, row.y_d1])
+            if int(row.frame) != self._frame:
+                rec.fragments.append([p[0], -1, p[1], p[2], p[3], p[4]])
+                rec.pixels[p[0]] = p[5]
+        parts = []
+        for r in members:
+            z = table[r]
+            rec.fragments.append([self._frame, -1, z[0], z[1], z[2], z[3]])
+            parts.append(self._pixels(label_image, z, int(labels[r])))
+        rec.pixels[self._frame] = np.sort(np.concatenate(parts))
 
     def objects(self) -> list[DetectedObject]:
         """Return the objects found so far, best first.
@@ -245,12 +345,10 @@ class MovingObjectDetector:
             return []
         if self._mode == "point":
             return self._point_objects()
-        out = []
+        out = self._point_objects() if self._mode == "staged" else []
         for gid, rec in self._records.items():
-            track = pd.DataFrame(rec.track, columns=_TRACK_COLUMNS).astype({"frame": np.int64})
-            fragments = pd.DataFrame(rec.fragments, columns=_FRAGMENT_COLUMNS).astype(
-                {"frame": np.int64, "fragment": np.int64}
-            )
+            track = _frame_of(rec.track, _TRACK_COLUMNS, 1)
+            fragments = _frame_of(rec.fragments, _FRAGMENT_COLUMNS, 2)
             out.append(
                 DetectedObject(
                     track,
@@ -273,6 +371,8 @@ class MovingObjectDetector:
         out = []
         assert self._check.shape is not None
         for particle, t in tracks.groupby("particle", sort=True):
+            if self._promoted.intersection(t["detection"].tolist()):
+                continue  # handed over to stage 2: reported as its group
             rows = [self._points[int(d)] for d in t["detection"]]
             track = pd.DataFrame(
                 {
@@ -283,10 +383,9 @@ class MovingObjectDetector:
                     "vy": t["y_d1"].to_numpy(),
                 }
             )
-            fragments = pd.DataFrame(
-                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows],
-                columns=_FRAGMENT_COLUMNS,
-            ).astype({"frame": np.int64, "fragment": np.int64})
+            fragments = _frame_of(
+                [[r[0], int(particle), r[1], r[2], r[3], r[4]] for r in rows], _FRAGMENT_COLUMNS, 2
+            )
             pixels = {int(r[0]): r[5] for r in rows}
             out.append(
                 DetectedObject(
@@ -302,20 +401,32 @@ class MovingObjectDetector:
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        if isinstance(self._core, _core.GroupTracker):
-            state["_core"] = ("group", bytes(self._core.state_bytes()))
+        for key in ("_core", "_groups"):
+            if isinstance(state.get(key), _core.GroupTracker):
+                state[key] = ("group", bytes(state[key].state_bytes()))
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        core = state.get("_core")
-        if isinstance(core, tuple):
-            if len(core) != 2 or core[0] != "group" or not isinstance(core[1], bytes):
-                raise ValueError("not a MovingObjectDetector state")
-            state["_core"] = _core.GroupTracker.from_state(core[1])
+        for key in ("_core", "_groups"):
+            core = state.get(key)
+            if isinstance(core, tuple):
+                if len(core) != 2 or core[0] != "group" or not isinstance(core[1], bytes):
+                    raise ValueError("not a MovingObjectDetector state")
+                state[key] = _core.GroupTracker.from_state(core[1])
         self.__dict__.update(state)
 
     def __repr__(self) -> str:
         return f"MovingObjectDetector(mode={self._mode!r}, frames={self._frame})"
+
+
+def _frame_of(rows: list[list[float]], columns: list[str], n_int: int) -> pd.DataFrame:
+    """A DataFrame of `rows`, its first `n_int` columns int64, the others float64 (built
+    column by column: far cheaper than a DataFrame of lists and ``astype``)."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, len(columns))
+    data = {
+        name: a[:, k].astype(np.int64) if k < n_int else a[:, k] for k, name in enumerate(columns)
+    }
+    return pd.DataFrame(data)
 
 
 def _ranked(objects: list[DetectedObject]) -> list[DetectedObject]:
@@ -353,13 +464,16 @@ def detect_moving_objects(
     mode : {"auto", "point", "extended"}, default "auto"
         "point": stage 1 only (the branching tracker on the segment centroids, one fragment per
         object); "extended": stage 2 from the first frame; "auto": "extended" when a segment
-        of the first frame exceeds 9 pixels, else "point".
+        of the first frame exceeds 9 pixels, else stage 1 first and stage 2 seeded (with
+        stage 1's velocity) by each confirmed trajectory once its segment exceeds 9 pixels.
     threshold : float, optional
         Segmentation threshold on the smoothed frame. When None, per frame: the median of the
         smoothed frame (of every 4th row and column beyond 256² pixels) + ``threshold_k`` ×
         σ / ``smooth`` (the noise std after the ``smooth`` × ``smooth`` box mean).
+        On a textured background give ``background_width`` (below).
     **options
-        Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, min_area=3,
+        Fields of ``DetectorOptions`` (smooth=3, threshold_k=3.0, background_width=0 (w > 0:
+        subtract the w × w local mean of the smoothed frame first), min_area=3,
         connectivity=8, order=1, position_std=1.0, process_std, amplitude_std,
         log_area_std=0.5, feature_drift=0.5, initial_speed_std, gate_margin=2.0,
         min_speed, velocity_tolerance, max_misses=2); see the method page.

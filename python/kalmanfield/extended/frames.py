@@ -38,38 +38,46 @@ class FrameCheck:
             )
         if min(raw.shape) < 2:
             raise ValueError(f"frames must be at least 2 × 2, got {raw.shape}")
-        out = np.array(raw, dtype=np.float64)
+        out = np.asarray(raw, dtype=np.float64)  # read only: copied below if changed
+        if np.isfinite(out.sum()):  # all finite (one reduction; an overflow checks below)
+            return out
         if np.isinf(out).any():
             raise ValueError(f"frame {index} holds an infinite value")
         missing = np.isnan(out)
+        if not missing.any():
+            return out  # finite values whose sum overflowed
         if missing.all():
             raise ValueError(f"frame {index} has no finite pixel")
-        if missing.any():  # missing pixels: the frame's median, never foreground on its own
-            out[missing] = np.median(out[~missing])
+        out = out.copy()
+        out[missing] = np.median(out[~missing])  # missing: never foreground on its own
         return out
 
 
 def box_smooth(image: np.ndarray, width: int) -> np.ndarray:
-    """Mean over a width × width box centred on each pixel (edges repeated); separable sums."""
+    """Mean over a width × width box centred on each pixel (edges repeated); Rust kernel,
+    twin :func:`kalmanfield.reference.extended.box_smooth`."""
     if width == 1:
         return image
-    lo = width // 2
-    padded = np.pad(image, ((lo, width - 1 - lo), (lo, width - 1 - lo)), mode="edge")
-    h, w = image.shape
-    rows = padded[0:h].copy()
-    for k in range(1, width):
-        rows += padded[k : k + h]
-    out = rows[:, 0:w].copy()
-    for k in range(1, width):
-        out += rows[:, k : k + w]
-    out /= width * width
-    return out
+    return _core.extended_smooth(np.ascontiguousarray(image, dtype=np.float64), width)
 
 
 def background_level(smoothed: np.ndarray) -> float:
-    """Median of the smoothed frame: of every 4th row and column beyond 256² pixels."""
-    step = 1 if smoothed.size <= 65536 else 4
-    return float(np.median(smoothed[::step, ::step]))
+    """Median of the smoothed frame: of every 4th row and column beyond 256² pixels (Rust,
+    twin :func:`kalmanfield.reference.extended.background_level`)."""
+    return _core.extended_level(np.ascontiguousarray(smoothed, dtype=np.float64))
+
+
+def box_mean(image: np.ndarray, width: int) -> np.ndarray:
+    """Mean over a width × width box centred on each pixel (edges repeated), by cumulative
+    sums: O(1) per pixel whatever the width (the local background level)."""
+    lo = width // 2
+    padded = np.pad(image, ((lo + 1, width - 1 - lo), (lo + 1, width - 1 - lo)), mode="edge")
+    padded[0, :] = 0.0
+    padded[:, 0] = 0.0
+    c = padded.cumsum(axis=0).cumsum(axis=1)
+    h, w = image.shape
+    total = c[width:, width:] - c[:h, width:] - c[width:, :w] + c[:h, :w]
+    return total / (width * width)
 
 
 def noise_level(image: np.ndarray) -> float:

@@ -19,6 +19,9 @@ class DetectorOptions:
     smooth: int = 3
     #: threshold = median of the smoothed frame + threshold_k × noise std of the smoothed frame
     threshold_k: float = 3.0
+    #: 0: off; w > 0: the mean over a w × w box of the smoothed frame (its local background
+    #: level) is subtracted before thresholding (textured backgrounds, e.g. an AR field)
+    background_width: int = 0
     #: segments of fewer pixels are dropped
     min_area: int = 3
     connectivity: int = 8
@@ -51,6 +54,7 @@ class DetectorOptions:
         positive_int(out.smooth, "smooth")
         real_number(out.threshold_k, "threshold_k")
         positive_int(out.min_area, "min_area")
+        nonnegative_int(out.background_width, "background_width")
         if out.connectivity not in (4, 8):
             raise ValueError(f"connectivity must be 4 or 8, got {out.connectivity!r}")
         if out.order not in (1, 2):

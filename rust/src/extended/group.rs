@@ -37,11 +37,22 @@ pub(crate) fn union(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
     ]
 }
 
+/// Whether (x, y) lies in box `b` grown by `margin`.
+pub(crate) fn in_box(b: [f64; 4], x: f64, y: f64, margin: f64) -> bool {
+    x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
+}
+
 impl Group {
-    /// Whether (x, y) lies in the box grown by `margin`.
-    pub fn gate_contains(&self, x: f64, y: f64, margin: f64) -> bool {
+    /// The box moved by the shared velocity over one step `dt`.
+    pub fn predicted_box(&self, dt: f64) -> [f64; 4] {
+        let v = velocity(&self.shared);
         let b = self.bbox;
-        x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
+        [
+            b[0] + v[0] * dt,
+            b[1] + v[1] * dt,
+            b[2] + v[0] * dt,
+            b[3] + v[1] * dt,
+        ]
     }
 
     pub fn centre(&self) -> [f64; 2] {

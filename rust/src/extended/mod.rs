@@ -11,6 +11,7 @@
 mod assignment;
 mod codec;
 mod config;
+mod frame;
 mod group;
 mod motion;
 mod sequence;
@@ -21,5 +22,6 @@ mod tests;
 
 pub use assignment::{assign, Variant};
 pub use config::{GroupConfig, MAX_ORDER};
+pub use frame::{background_level, box_smooth};
 pub use sequence::Measurement;
 pub use tracker::{FrameAnswer, GroupReport, GroupTracker};

@@ -185,3 +185,30 @@ fn bad_configuration_and_segments_are_errors() {
     z.area = 0.0;
     assert!(t.step(&[z]).is_err());
 }
+
+#[test]
+fn seeded_group_has_members_at_once_with_stage_one_velocity() {
+    let mut t = GroupTracker::new(GroupConfig {
+        seed_groups: false,
+        ..config()
+    })
+    .unwrap();
+    t.seed(&[blob(10.0, 10.0, 1.0)], [2.0, 0.0], 5).unwrap();
+    let a = t.step(&[blob(12.0, 10.0, 1.0)]).unwrap();
+    assert_eq!(a.segment_member, vec![true]);
+    assert!((a.groups[0].vx - 2.0).abs() < 0.1 && a.groups[0].vy.abs() < 0.1);
+    assert!(t.seed(&[blob(1.0, 1.0, 1.0)], [f64::NAN, 0.0], 1).is_err());
+    assert!(t.seed(&[blob(1.0, 1.0, 1.0)], [0.0, 0.0], 0).is_err());
+}
+
+#[test]
+fn box_smooth_and_level_by_hand() {
+    // 2 × 3 image, width 3: edge rows/columns repeated
+    let image = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+    let out = box_smooth(&image, 2, 3, 3);
+    // pixel (0, 0): rows {0, 0, 1} × columns {0, 0, 1} → (2·(2·1 + 2) + (2·4 + 5)) / 9
+    assert!((out[0] - (2.0 * (2.0 + 2.0) + (8.0 + 5.0)) / 9.0).abs() < 1e-15);
+    assert_eq!(box_smooth(&image, 2, 3, 1), image.to_vec());
+    assert_eq!(background_level(&image, 2, 3), 3.5);
+    assert_eq!(background_level(&image[..5], 1, 5), 3.0);
+}

@@ -5,7 +5,7 @@
 
 use super::assignment::{assign, Variant};
 use super::config::GroupConfig;
-use super::group::{distance, union, velocity, Group};
+use super::group::{distance, in_box, union, velocity, Group};
 use super::motion::{motion, Matrix, DIM};
 use super::sequence::{Filters, Measurement};
 use crate::{FieldError, Result};
@@ -94,18 +94,47 @@ impl GroupTracker {
     }
 
     /// Starts a group at the given segments with known velocity (stage 1's answer, step 4).
-    pub fn seed(&mut self, segments: &[Measurement], velocity: [f64; 2]) -> Result<u64> {
+    /// `length` is the number of observations stage 1 already made of the object (≥ 1): the
+    /// seeded sequences continue its trajectory, so they count that many observations
+    /// (features joined, members at once when longer than ν + 1), their features with the
+    /// variance of one observation.
+    pub fn seed(
+        &mut self,
+        segments: &[Measurement],
+        velocity: [f64; 2],
+        length: usize,
+    ) -> Result<u64> {
         check(segments)?;
         if !(velocity[0].is_finite() && velocity[1].is_finite()) {
             return Err(FieldError::NonFinite("seed velocity is not finite".into()));
+        }
+        if velocity[0].abs() > 1e12 || velocity[1].abs() > 1e12 {
+            return Err(FieldError::InvalidParameter(
+                "seed velocity beyond 1e12 in magnitude".into(),
+            ));
+        }
+        if !(1..=1 << 40).contains(&length) {
+            return Err(FieldError::InvalidParameter(format!(
+                "seed length must be 1..=2**40, got {length}"
+            )));
         }
         let mut shared = [[0.0; DIM]; 2];
         shared[0][1] = velocity[0];
         shared[1][1] = velocity[1];
         let id = self.new_group(shared, segments.first().map_or([0.0; 4], |z| z.bbox));
         let g = self.groups.len() - 1;
+        let feature_var = [
+            self.config.amplitude_std.powi(2),
+            self.config.log_area_std.powi(2),
+        ];
         for z in segments {
             self.start_sequence(g, z, true);
+            if length > 1 {
+                if let Some(s) = self.groups[g].sequences.last_mut() {
+                    s.length = length;
+                    s.feature_var = feature_var;
+                }
+            }
         }
         Ok(id)
     }
@@ -149,11 +178,17 @@ impl GroupTracker {
             groups: Vec::new(),
             merged: Vec::new(),
         };
+        let dt = self.config.dt;
+        let predicted: Vec<(u64, [f64; 4])> = self
+            .groups
+            .iter()
+            .map(|g| (g.id, g.predicted_box(dt)))
+            .collect();
         let chosen = self.variants_chosen(segments);
         self.apply_assignment(segments, &chosen);
         self.refresh_groups(segments);
         self.split_groups(segments);
-        self.start_new(segments, &mut answer);
+        self.start_new(segments, &predicted, &mut answer);
         answer.merged = self.merge_groups();
         self.report(segments, &mut answer);
         self.frame += 1;
@@ -280,8 +315,16 @@ impl GroupTracker {
     }
 
     /// Step 8: segments left alone start sequences in the group whose gate holds them (the
-    /// nearest box centre), or new groups (`seed_groups`).
-    fn start_new(&mut self, segments: &[Measurement], answer: &mut FrameAnswer) {
+    /// nearest box centre; that group counts as seen: its misses restart), or new groups
+    /// (`seed_groups`). A group's gate: the box of its segments of this frame united with its
+    /// previous box moved by the shared velocity (`predicted`, by group id), grown by the
+    /// margin — the object's extent even when only a part of it was confirmed.
+    fn start_new(
+        &mut self,
+        segments: &[Measurement],
+        predicted: &[(u64, [f64; 4])],
+        answer: &mut FrameAnswer,
+    ) {
         let mut used = vec![false; segments.len()];
         for group in &self.groups {
             for s in &group.sequences {
@@ -297,7 +340,11 @@ impl GroupTracker {
             }
             let mut best: Option<(f64, usize)> = None;
             for (g, group) in self.groups.iter().enumerate() {
-                if group.gate_contains(z.x, z.y, self.config.gate_margin) {
+                let gate = predicted
+                    .iter()
+                    .find(|(id, _)| *id == group.id)
+                    .map_or(group.bbox, |(_, b)| union(group.bbox, *b));
+                if in_box(gate, z.x, z.y, self.config.gate_margin) {
                     let d = distance(group.centre(), z.position());
                     if best.is_none_or(|(bd, _)| d < bd) {
                         best = Some((d, g));
@@ -314,6 +361,8 @@ impl GroupTracker {
             };
             let id = self.start_sequence(g, z, g >= old);
             let group = &mut self.groups[g];
+            // the object is seen, only its fragments changed (they merged, split or jumped)
+            group.misses = 0;
             if let Some(s) = group.sequences.last_mut() {
                 s.segment = Some(r);
             }

@@ -1,7 +1,10 @@
 //! Binding of stage 2 of the detector (SPEC §3.4): `kalmanfield._core.GroupTracker` and
 //! `kalmanfield._core.extended_assign`.
 
-use crate::extended::{assign, GroupConfig, GroupTracker, Measurement, Variant};
+use super::convert::contiguous;
+use crate::extended::{
+    assign, background_level, box_smooth, GroupConfig, GroupTracker, Measurement, Variant,
+};
 use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
 };
@@ -12,7 +15,42 @@ use pyo3::types::{PyBytes, PyDict};
 /// Adds the stage-2 items to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyGroupTracker>()?;
+    m.add_function(wrap_pyfunction!(extended_smooth, m)?)?;
+    m.add_function(wrap_pyfunction!(extended_level, m)?)?;
     m.add_function(wrap_pyfunction!(extended_assign, m)?)
+}
+
+/// Box mean of `width` × `width` (edges repeated) of a C-contiguous float64 image.
+#[pyfunction]
+fn extended_smooth<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray2<'py, f64>,
+    width: usize,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    if !(1..=1 << 16).contains(&width) {
+        return Err(PyValueError::new_err(format!(
+            "width must be 1..=65536, got {width}"
+        )));
+    }
+    let (h, w) = (image.shape()[0], image.shape()[1]);
+    if h == 0 || w == 0 {
+        return Err(PyValueError::new_err("image must not be empty"));
+    }
+    let values = contiguous(&image, "image")?;
+    let out = py.detach(|| box_smooth(values, h, w, width));
+    PyArray1::from_vec(py, out).reshape([h, w])
+}
+
+/// Median of a C-contiguous float64 image without NaN (of every 4th row and column beyond
+/// 65536 pixels).
+#[pyfunction]
+fn extended_level(py: Python<'_>, image: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+    let (h, w) = (image.shape()[0], image.shape()[1]);
+    let values = contiguous(&image, "image")?;
+    if values.iter().any(|v| v.is_nan()) {
+        return Err(PyValueError::new_err("image must not contain NaN"));
+    }
+    Ok(py.detach(|| background_level(values, h, w)))
 }
 
 /// The greedy assignment of steps 5–6: positions of the chosen variants, best first.
@@ -173,10 +211,18 @@ impl PyGroupTracker {
         Ok(out)
     }
 
-    /// Starts a group at the given segments ((m, 8) array) with a known velocity (vx, vy).
-    fn seed(&mut self, segments: PyReadonlyArray2<'_, f64>, vx: f64, vy: f64) -> PyResult<u64> {
+    /// Starts a group at the given segments ((m, 8) array) with a known velocity (vx, vy)
+    /// and the number of observations stage 1 made of the object; returns the group id.
+    #[pyo3(signature = (segments, vx, vy, length=1))]
+    fn seed(
+        &mut self,
+        segments: PyReadonlyArray2<'_, f64>,
+        vx: f64,
+        vy: f64,
+        length: usize,
+    ) -> PyResult<u64> {
         let z = measurements(&segments)?;
-        Ok(self.inner.seed(&z, [vx, vy])?)
+        Ok(self.inner.seed(&z, [vx, vy], length)?)
     }
 
     /// Frames processed.

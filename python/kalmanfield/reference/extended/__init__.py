@@ -1,5 +1,7 @@
-"""Twin of the stage-2 grouping of extended objects (method page *Extended objects*)."""
+"""Twin of the stage-2 grouping of extended objects and of the detector's frame kernels
+(method page *Extended objects*)."""
 
+from .frames import background_level, box_smooth
 from .grouping import GroupTracker, assign
 
-__all__ = ["GroupTracker", "assign"]
+__all__ = ["GroupTracker", "assign", "background_level", "box_smooth"]

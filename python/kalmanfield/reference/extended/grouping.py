@@ -96,6 +96,24 @@ class GroupTracker:
         self.next_group = 0
         self.next_sequence = 0
 
+    def seed(self, segments: np.ndarray, vx: float, vy: float, length: int = 1) -> int:
+        """A group at `segments` with the shared velocity (vx, vy); its sequences count
+        `length` observations (stage 1's), features with one observation's variance."""
+        z_all = np.asarray(segments, dtype=float).reshape(-1, 8)
+        shared = np.zeros((2, DIM))
+        shared[:, 1] = [vx, vy]
+        g = Group(self.next_group, shared, bbox=z_all[0, 4:8].copy() if len(z_all) else np.zeros(4))
+        self.next_group += 1
+        self.groups.append(g)
+        for z in z_all:
+            s = self._start(z, g.shared)
+            if length > 1:
+                s.length = length
+                s.feature_var = self._feature_std() ** 2
+            g.sequences.append(s)
+            g.bbox = self._union(g.bbox, z[4:8])
+        return g.id
+
     # -- one sequence ------------------------------------------------------------------------
     def _feature_std(self) -> np.ndarray:
         return np.array([self.c["amplitude_std"], self.c["log_area_std"]])
@@ -197,6 +215,10 @@ class GroupTracker:
         z_all = np.asarray(segments, dtype=float).reshape(-1, 8)
         m, c = len(z_all), self.c
         seg_group, seg_seq, seg_member = np.full(m, -1), np.full(m, -1), np.zeros(m, bool)
+        predicted = {
+            g.id: g.bbox + np.array([g.shared[0, 1], g.shared[1, 1]] * 2) * c["dt"]
+            for g in self.groups
+        }
         # steps 5-6
         flat: list[tuple[int, int]] = []
         seqs: list[int] = []
@@ -242,7 +264,7 @@ class GroupTracker:
             g.bbox = box
         self.groups = [g for g in self.groups if g.misses <= c["max_misses"]]
         self._split(z_all)
-        self._start_new(z_all, seg_group, seg_seq)
+        self._start_new(z_all, seg_group, seg_seq, predicted)
         merged = self._merge()
         groups = self._report(z_all, seg_group, seg_seq, seg_member)
         return seg_group, seg_seq, seg_member, groups, merged
@@ -263,7 +285,7 @@ class GroupTracker:
             self.groups.append(Group(self.next_group, shared, [s], z_all[s.segment, 4:8].copy()))
             self.next_group += 1
 
-    def _start_new(self, z_all, seg_group, seg_seq) -> None:
+    def _start_new(self, z_all, seg_group, seg_seq, predicted) -> None:
         c = self.c
         used = {s.segment for g in self.groups for s in g.sequences}
         old = len(self.groups)
@@ -274,11 +296,14 @@ class GroupTracker:
             best = None
             for gi, g in enumerate(self.groups):
                 b = g.bbox
+                if g.id in predicted:
+                    b = self._union(b, predicted[g.id])
                 if (
                     b[0] - margin <= z[0] <= b[2] + margin
                     and b[1] - margin <= z[1] <= b[3] + margin
                 ):
-                    centre = np.array([0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])])
+                    o = g.bbox
+                    centre = np.array([0.5 * (o[0] + o[2]), 0.5 * (o[1] + o[3])])
                     dist = math.hypot(*(centre - z[:2]))
                     if best is None or dist < best[0]:
                         best = (dist, gi)
@@ -291,6 +316,7 @@ class GroupTracker:
             else:
                 continue
             g = self.groups[gi]
+            g.misses = 0
             s = self._start(z, g.shared)
             s.segment = r
             g.sequences.append(s)
