@@ -272,3 +272,35 @@ def test_docstring_example():
     import kalmanfield.template.tracker as tracker
 
     assert doctest.testmod(tracker).failed == 0
+
+
+def _reversal(k):
+    # +3 px/frame along x, reversed at frame 14 (a bounce the motion model cannot foresee)
+    x = 10 + 3 * k if k <= 14 else 52 - 3 * (k - 14)
+    return float(x), 20.0
+
+
+def test_a_reversal_is_found_by_the_held_hypothesis(scene):
+    frames, template, truth = scene(n=24, path=_reversal, snr=4.0)
+    settings = dict(process_std=0.05, measurement_std=0.5, initial_std=(0.5, 2.0, 0.2))
+    rust = TemplateTracker(template, truth[0], **settings)
+    twin = TwinTracker([template], [truth[0]], **settings)
+    steps = []
+    for frame in frames:
+        s, t = rust.update(frame), twin.update(frame)[0]
+        np.testing.assert_allclose(s.state, t["mean"], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(s.covariance, t["cov"], rtol=1e-12, atol=1e-12)
+        assert (s.collapsed, s.window) == (t["collapsed"], t["window"])
+        steps.append(s)
+    # frame 15: the old velocity predicts x ≈ 55 (gate ± ~2.5 px), the target is at 49
+    turn = steps[15]
+    assert not turn.collapsed and abs(turn.x_measured - 49) < 0.5
+    assert turn.window[0] <= 49 - 4  # the held window, around the last position (52)
+    errors = [abs(s.x - x) for s, (x, _) in zip(steps[15:], truth[15:], strict=True)]
+    assert max(errors) < 1.5
+    # the first prediction's gate does not reach the target: without the held hypothesis
+    # the frame would be coasted on at the old velocity
+    f, q, h, r = rust.model_matrices()
+    mean, cov = f @ steps[14].state, f @ steps[14].covariance @ f.T + q
+    s = h @ cov @ h.T + r
+    assert (h @ mean)[0] - 49 > 3 * np.sqrt(s[0, 0]) + 0.5
