@@ -375,7 +375,7 @@ def accuracy_tables(names: list[str], counts: dict) -> list[str]:
     lines = []
     for kind in ("AR field", "image crops"):
         lines += [
-            f"#### {kind}",
+            f"### {kind}",
             "",
             "| method | " + " | ".join(f"SNR {s:g}" for s in SNRS) + " |",
             "|---|" + "---:|" * len(SNRS),
