@@ -23,12 +23,11 @@ def _leave_and_return(k):
     return (200.0 if 15 <= k < 22 else 10 + 1.3 * k + 0.02 * k * k), 20 + 8 * np.sin(k / 7)
 
 
-@pytest.mark.parametrize("settings", SETTINGS)
-def test_rust_equals_twin(scene, settings):
-    frames, template, truth = scene(path=_leave_and_return)
-    rust = TemplateTracker(template, truth[0], **settings)
-    twin = TwinTracker([template], [truth[0]], **settings)
-    flags = []
+def _rust_and_twin(frames, template, start, settings):
+    """(Rust tracker, twin, Rust steps), asserting frame by frame that the two agree."""
+    rust = TemplateTracker(template, start, **settings)
+    twin = TwinTracker([template], [start], **settings)
+    steps = []
     for frame in frames:
         s, t = rust.update(frame), twin.update(frame)[0]
         np.testing.assert_allclose(s.state, t["mean"], rtol=0, atol=1e-9)
@@ -39,7 +38,15 @@ def test_rust_equals_twin(scene, settings):
             t["window"],
         )
         assert s.score == pytest.approx(t["score"], abs=1e-10, nan_ok=True)
-        flags.append(s.collapsed)
+        steps.append(s)
+    return rust, twin, steps
+
+
+@pytest.mark.parametrize("settings", SETTINGS)
+def test_rust_equals_twin(scene, settings):
+    frames, template, truth = scene(path=_leave_and_return)
+    rust, twin, steps = _rust_and_twin(frames, template, truth[0], settings)
+    flags = [s.collapsed for s in steps]
     assert any(flags) and not all(flags)  # both branches ran
     np.testing.assert_allclose(rust.templates[0], twin.templates[0], atol=1e-12)
 
@@ -272,3 +279,27 @@ def test_docstring_example():
     import kalmanfield.template.tracker as tracker
 
     assert doctest.testmod(tracker).failed == 0
+
+
+def _reversal(k):
+    # +3 px/frame along x, reversed at frame 14 (a bounce the motion model cannot foresee)
+    x = 10 + 3 * k if k <= 14 else 52 - 3 * (k - 14)
+    return float(x), 20.0
+
+
+def test_a_reversal_is_found_by_the_held_hypothesis(scene):
+    frames, template, truth = scene(n=24, path=_reversal, snr=4.0)
+    settings = dict(process_std=0.05, measurement_std=0.5, initial_std=(0.5, 2.0, 0.2))
+    rust, _, steps = _rust_and_twin(frames, template, truth[0], settings)
+    # frame 15: the old velocity predicts x ≈ 55 (gate ± ~2.5 px), the target is at 49
+    turn = steps[15]
+    assert not turn.collapsed and abs(turn.x_measured - 49) < 0.5
+    assert turn.window[0] <= 49 - 4  # the held window, around the last position (52)
+    errors = [abs(s.x - x) for s, (x, _) in zip(steps[15:], truth[15:], strict=True)]
+    assert max(errors) < 1.5
+    # the first prediction's gate does not reach the target: without the held hypothesis
+    # the frame would be coasted on at the old velocity
+    f, q, h, r = rust.model_matrices()
+    mean, cov = f @ steps[14].state, f @ steps[14].covariance @ f.T + q
+    s = h @ cov @ h.T + r
+    assert (h @ mean)[0] - 49 > 3 * np.sqrt(s[0, 0]) + 0.5

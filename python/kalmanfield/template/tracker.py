@@ -117,7 +117,8 @@ class TemplateTracker:
     standard deviations of the predicted position (plus the template); the NCC peak inside
     it (:func:`match_template`, sub-pixel) is the measurement of a Kalman filter with a
     constant-acceleration (or constant-velocity) state per axis. A collapsed score triggers a
-    search of the whole frame (re-acquisition).
+    search around the last position (a stop or a turn) and then of the whole frame
+    (re-acquisition).
 
     Parameters
     ----------
@@ -166,8 +167,8 @@ class TemplateTracker:
     Notes
     -----
     Frames must have the template's dtype (an array-like template takes the first frame's).
-    The rules (window, collapse, re-acquisition, template update) are on the method page
-    *Template tracker*. The tracker pickles mid-stream and resumes exactly.
+    The rules (window, collapse, manoeuvre, re-acquisition, template update) are on the
+    method page *Template tracker*. The tracker pickles mid-stream and resumes exactly.
 
     Examples
     --------

@@ -12,6 +12,14 @@
 //!   gate ellipse νᵀ S⁻¹ ν ≤ gate² (ν the position's innovation, shrunk by half a pixel per
 //!   axis: `Gate::admits`); the window's corners and its refinement margin hold no
 //!   measurement.
+//! - Manoeuvre (held hypothesis): when the in-gate peak collapses, the gate of a second
+//!   prediction is searched — the target stopped or turned at its last estimated position:
+//!   that position and its covariance, the velocity (and acceleration) restarted from the
+//!   prior, predicted one frame. If its in-gate peak scores at least ρ̄ (an alternative to the
+//!   motion model needs a confident peak: a collapse threshold let false peaks near the last
+//!   position in at SNR 0.3, on held-out runs), it is the frame's measurement and that
+//!   prediction the one updated (the window reported is its window); otherwise the rules
+//!   below go on with the first prediction.
 //! - Collapse: the in-window peak score (NCC) below `collapse` times the reference score ρ̄,
 //!   or no position to search (window off the frame, smaller than the template, no scored
 //!   position in the gate).
@@ -332,18 +340,52 @@ impl TemplateTracker {
         Ok(steps)
     }
 
-    /// The prediction and the in-window search of one target.
+    /// The prediction and the in-window search of one target; when its score collapses, the
+    /// held hypothesis (module docs, *Manoeuvre*) is searched too and taken if its peak
+    /// scores at least ρ̄.
     fn search_window<T: Pixel>(
         &self,
         t: &Target,
         frame: &Frame<'_, T>,
         first: bool,
     ) -> Result<Local> {
-        let predicted = if first {
-            t.state.clone()
-        } else {
-            kalman::predict(&self.model, &t.state)
+        if first {
+            return self.search_gate(t, frame, t.state.clone());
+        }
+        let local = self.search_gate(t, frame, kalman::predict(&self.model, &t.state))?;
+        if !self.collapsed(t, local.found.as_ref()) {
+            return Ok(local);
+        }
+        let held = self.search_gate(t, frame, self.held(&t.state))?;
+        let confident = match (held.found, t.reference) {
+            (Some(m), Some(reference)) => m.score >= reference,
+            _ => false,
         };
+        Ok(if confident { held } else { local })
+    }
+
+    /// The prediction of the held hypothesis: the target stopped or turned at its last
+    /// estimated position — that position and its covariance, the velocity (and
+    /// acceleration) restarted from the prior (zero mean, prior variances), predicted one
+    /// frame.
+    fn held(&self, state: &Gaussian) -> Gaussian {
+        let k = self.config.motion.per_axis();
+        let mut restarted = self.config.initial(state.mean[0], state.mean[k]);
+        for a in [0, k] {
+            for b in [0, k] {
+                restarted.cov[(a, b)] = state.cov[(a, b)];
+            }
+        }
+        kalman::predict(&self.model, &restarted)
+    }
+
+    /// The search of one target inside the gate of `predicted`.
+    fn search_gate<T: Pixel>(
+        &self,
+        t: &Target,
+        frame: &Frame<'_, T>,
+        predicted: Gaussian,
+    ) -> Result<Local> {
         let (h, w) = (t.template.h, t.template.w);
         let gate = Gate::new(&self.model, &predicted, self.config.gate);
         let window = gate.window((h, w), (frame.height, frame.width));

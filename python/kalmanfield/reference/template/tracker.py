@@ -10,6 +10,11 @@ Rules (the method page *Template tracker* states them for users):
   whole pixels plus one on each side, plus the template, cut to the frame;
 - validation gate: the in-window peak is the highest score among the positions p with
   νᵀ S⁻¹ ν ≤ gate², ν = p − ẑ shrunk by ½ per axis towards 0 (ẑ the predicted top-left);
+- manoeuvre (held hypothesis): when the in-gate peak collapses (not on the first frame),
+  the gate of a second prediction is searched — the last estimated position with its
+  covariance, velocity and acceleration restarted from the prior (zero mean, prior
+  variances), one step of F; its gated peak, when its score is at least ρ̄, is the
+  measurement and that prediction the one updated (its window reported);
 - collapse: no searchable position, or the in-window NCC peak below collapse·ρ̄, ρ̄ the running
   mean of accepted scores (ρ̄ ← 0.9 ρ̄ + 0.1 s; the first accepted score starts it);
 - re-acquisition: after a collapse, the whole-frame peak is accepted when its score is at
@@ -148,6 +153,23 @@ class TwinTracker:
             return None
         return x0, y0, x1, y1
 
+    def _search(self, frame, template, mean, cov):
+        """(window, gated peak or None) of the prediction (mean, cov)."""
+        h, w = template.shape
+        window = self._window(mean, cov, frame.shape, template.shape)
+        if window is None or window[3] - window[1] < h or window[2] - window[0] < w:
+            return window, None
+        gate = (self.h @ mean, self.h @ cov @ self.h.T + self.r)
+        return window, self._peak(frame, template, window, gate)[0]
+
+    def _held(self, mean, cov):
+        """The held hypothesis' prediction: the position and its covariance kept, velocity and
+        acceleration restarted from the prior, one step of F."""
+        positions = np.arange(len(mean)) % self.d == 0
+        m = np.where(positions, mean, 0.0)
+        p = np.where(np.outer(positions, positions), cov, self.p0)
+        return self.f @ m, self.f @ p @ self.f.T + self.q
+
     def update(self, frame):
         """One frame: per template a dict (mean, cov, score, measurement, window, collapsed,
         reacquired)."""
@@ -160,13 +182,15 @@ class TwinTracker:
             else:
                 mean = self.f @ self.means[k]
                 cov = self.f @ self.covs[k] @ self.f.T + self.q
-            window = self._window(mean, cov, frame.shape, t.shape)
-            found = None
-            if window is not None and window[3] - window[1] >= h and window[2] - window[0] >= w:
-                gate = (self.h @ mean, self.h @ cov @ self.h.T + self.r)
-                found, _ = self._peak(frame, t, window, gate)
+            window, found = self._search(frame, t, mean, cov)
             ref = self.reference[k]
             collapsed = found is None or (ref is not None and found[2] < self.collapse * ref)
+            if collapsed and self.frames > 0:
+                held_mean, held_cov = self._held(self.means[k], self.covs[k])
+                held_window, held = self._search(frame, t, held_mean, held_cov)
+                if held is not None and ref is not None and held[2] >= ref:
+                    mean, cov, window, found = held_mean, held_cov, held_window, held
+                    collapsed = False
             step = dict(
                 score=np.nan if found is None else found[2],
                 window=window,
