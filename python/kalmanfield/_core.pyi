@@ -420,6 +420,7 @@ class FastSequenceFilter:
         cls,
         model: FieldModel,
         error_model: FieldModel,
+        smoothing: float,
         noise_var: float,
         height: int,
         width: int,

@@ -1,6 +1,7 @@
 """The spatial model of the fast filter's prediction error (method page *Sequence filter*,
 §2.5.3): a separable AR model whose multiplicities and (ρ_y, ρ_x, σ) minimise the steady
-MSE of the whole fast recursion, evaluated per spatial frequency."""
+MSE of the whole fast recursion, evaluated per spatial frequency, and for n_t = 2 the gain c
+of the previous estimate's correction x̂_{t−1|t} = x̂_{t−1} + c·û_t."""
 
 from __future__ import annotations
 
@@ -32,20 +33,53 @@ def _ar_coefficients(rho: float, order: int) -> np.ndarray:
     return np.array([(-1) ** (j + 1) * comb(order, j) * rho**j for j in range(1, order + 1)])
 
 
-def loop_mse(model: ARFieldModel, ratio: float, gain: np.ndarray) -> float:
+def loop_mse(model: ARFieldModel, ratio: float, gain: np.ndarray, smoothing: float = 0.0) -> float:
     """Mean steady error variance of the fast recursion with per-frequency update gains
-    `gain` (same grid as :func:`field_spectrum`), in units of σ_x²: per frequency the error
-    e_t = (1 − g)(Σ_j α_j e_{t−j} + w_t) − g θ_t is an AR(n_t) sequence (n_t ≤ 2: beyond,
-    the loop is unstable for some gains), of closed-form variance."""
-    alpha = _ar_coefficients(model.rho[0], model.order[0])
+    `gain` (same grid as :func:`field_spectrum`) and correction gain c = `smoothing`, in
+    units of σ_x². Per frequency, with u_t = Σ_j α_j ε_{t−j} + w_t the prediction error
+    (ε_{t−1} = e_{t−1}, ε_{t−2} = f_{t−1}), the errors e_t = (1 − g) u_t − g θ_t of x̂_t and
+    f_t = e_{t−1} − c g (u_t + θ_t) of x̂_{t−1|t} follow a 2-state linear recursion; its
+    steady covariance solves a 3 × 3 Lyapunov system (n_t ≤ 2: beyond, the loop is unstable
+    for some gains). An unstable loop gives inf."""
+    alpha = np.zeros(2)
+    alpha[: model.order[0]] = _ar_coefficients(model.rho[0], model.order[0])
     drive = _beta_tilde_sq(model.rho[0], model.order[0])
     g = gain.ravel()
-    q = (1 - g) ** 2 * field_spectrum(model).ravel() * drive + g**2 * ratio
-    a = (1 - g)[:, None] * alpha
-    if alpha.size == 1:
-        return float(np.mean(q / (1 - a[:, 0] ** 2)))
-    a1, a2 = a[:, 0], a[:, 1]  # (n_t = 2: stable, (1 − g)(2ρ − ρ²) < 1)
-    return float(np.mean(q * (1 - a2) / ((1 + a2) * ((1 - a2) ** 2 - a1**2))))
+    cg = smoothing * g
+    a = np.empty((g.size, 2, 2))
+    a[:, 0, 0], a[:, 0, 1] = (1 - g) * alpha[0], (1 - g) * alpha[1]
+    a[:, 1, 0], a[:, 1, 1] = 1 - cg * alpha[0], -cg * alpha[1]
+    trace, det = a[:, 0, 0] + a[:, 1, 1], a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    if np.any(np.abs(det) >= 1) or np.any(np.abs(trace) >= 1 + det):  # (Jury's test)
+        return float("inf")
+    w = drive * field_spectrum(model).ravel()
+    q0 = (1 - g) ** 2 * w + g**2 * ratio
+    a00, a01, a10, a11 = a[:, 0, 0], a[:, 0, 1], a[:, 1, 0], a[:, 1, 1]
+    if model.order[0] == 1:  # (f never feeds back: e is an AR(1) sequence)
+        return float(np.mean(q0 / (1 - a00**2)))
+    q = np.stack([q0, -(1 - g) * cg * w + g * cg * ratio, cg**2 * (w + ratio)], axis=1)
+    m = np.stack(
+        [
+            np.stack([a00**2, 2 * a00 * a01, a01**2], axis=1),
+            np.stack([a00 * a10, a00 * a11 + a01 * a10, a01 * a11], axis=1),
+            np.stack([a10**2, 2 * a10 * a11, a11**2], axis=1),
+        ],
+        axis=1,
+    )
+    system = np.eye(3) - m
+    # P_00 by Cramer's rule (a batched 3 × 3 solve costs ~10× more)
+    first = system.copy()
+    first[:, :, 0] = q
+    return float(np.mean(_det3(first) / _det3(system)))
+
+
+def _det3(m: np.ndarray) -> np.ndarray:
+    """Determinants of a stack of 3 × 3 matrices (explicitly: LAPACK's batched one is slower)."""
+    return (
+        m[:, 0, 0] * (m[:, 1, 1] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 1])
+        - m[:, 0, 1] * (m[:, 1, 0] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 0])
+        + m[:, 0, 2] * (m[:, 1, 0] * m[:, 2, 1] - m[:, 1, 1] * m[:, 2, 0])
+    )
 
 
 def field_spectrum(model: ARFieldModel) -> np.ndarray:
@@ -65,31 +99,37 @@ def _gain(params: np.ndarray, orders: tuple[int, int], ratio: float) -> np.ndarr
     return s / (s + ratio)
 
 
-def error_model(model: ARFieldModel, ratio: float) -> tuple[ARFieldModel, float]:
+def error_model(model: ARFieldModel, ratio: float) -> tuple[ARFieldModel, float, float]:
     """The 2-axis model of the steady prediction error for a (t, y, x) `model` with σ = 1 at
-    noise ratio σ_θ²/σ_x² = `ratio`, and the design's predicted MSE (units of σ_x²).
+    noise ratio σ_θ²/σ_x² = `ratio`, the correction gain c (0 for n_t = 1) and the design's
+    predicted MSE (units of σ_x²).
 
     Per candidate multiplicities (1 or 2 per axis, and the field's own), a pattern search over
     (ρ_y, ρ_x, log σ²) from the field's spatial ρ (a gaining step doubles, up to its start;
     all halve when none gains, until they are below 1e-4); the candidate of least predicted
-    MSE wins."""
+    MSE wins. For n_t = 2 the search also moves c (from 0.9): the gains g that suit the
+    corrected prediction differ from those of c = 0."""
     candidates = {(a, b) for a in (1, 2) for b in (1, 2)} | {(model.order[1], model.order[2])}
     fits = [_fit(model, ratio, orders) for orders in sorted(candidates)]
-    return min(fits, key=lambda fit: fit[1])
+    return min(fits, key=lambda fit: fit[2])
 
 
-def _fit(model: ARFieldModel, ratio: float, orders: tuple[int, int]) -> tuple[ARFieldModel, float]:
-    params = np.array([model.rho[1], model.rho[2], 0.0])
+def _fit(
+    model: ARFieldModel, ratio: float, orders: tuple[int, int]
+) -> tuple[ARFieldModel, float, float]:
+    corrected = model.order[0] >= 2
+    params = np.array([model.rho[1], model.rho[2], 0.0, 0.9 if corrected else 0.0])
 
     def mse(p):
-        return loop_mse(model, ratio, _gain(p, orders, ratio))
+        return loop_mse(model, ratio, _gain(p, orders, ratio), p[3])
 
     best = mse(params)
-    initial = np.array([0.05, 0.05, 0.5])
+    initial = np.array([0.05, 0.05, 0.5, 0.1])
     steps = initial.copy()
-    while steps.max() > 1e-4:
+    moving = 4 if corrected else 3
+    while steps[:moving].max() > 1e-4:
         moved = False
-        for i in range(3):
+        for i in range(moving):
             for sign in (1.0, -1.0):
                 trial = params.copy()
                 trial[i] += sign * steps[i]
@@ -106,4 +146,4 @@ def _fit(model: ARFieldModel, ratio: float, orders: tuple[int, int]) -> tuple[AR
     fitted = ARFieldModel(
         [float(params[0]), float(params[1])], list(orders), float(np.exp(params[2] / 2))
     )
-    return fitted, best
+    return fitted, float(params[3]), best

@@ -111,6 +111,7 @@ class SequenceFilter:
         "_ratio",
         "_unit",
         "_error_model",
+        "_smoothing",
         "_core",
     )
 
@@ -134,8 +135,9 @@ class SequenceFilter:
         self._method = self._resolve(method)
         self._unit, self._ratio = unit_scale(self._model, self._noise_var)
         self._error_model: ARFieldModel | None = None
+        self._smoothing = 0.0
         if self._method == "fast":
-            self._error_model, _ = error_model(self._unit, self._ratio)
+            self._error_model, self._smoothing, _ = error_model(self._unit, self._ratio)
         self._core = self._kernel()
 
     def _resolve(self, method: object) -> str:
@@ -161,7 +163,7 @@ class SequenceFilter:
             return _core.ModalSequenceFilter(self._unit._core, self._ratio, h, w, self._lag)
         assert self._error_model is not None
         return _core.FastSequenceFilter(
-            self._unit._core, self._error_model._core, self._ratio, h, w
+            self._unit._core, self._error_model._core, self._smoothing, self._ratio, h, w
         )
 
     # -- attributes ---------------------------------------------------------------------

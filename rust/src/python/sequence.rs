@@ -102,12 +102,14 @@ impl PyFastSequenceFilter {
         py: Python<'_>,
         model: &PyFieldModel,
         error_model: &PyFieldModel,
+        smoothing: f64,
         noise_var: f64,
         height: usize,
         width: usize,
     ) -> PyResult<Self> {
         let inner = py.detach(|| {
-            FastSequenceFilter::new(&model.inner, &error_model.inner, noise_var, height, width)
+            let (m, e) = (&model.inner, &error_model.inner);
+            FastSequenceFilter::new(m, e, smoothing, noise_var, height, width)
         })?;
         Ok(Self { inner })
     }

@@ -3,7 +3,9 @@
 //! recursion, then the smoothed quasi-optimal row filter (SPEC §2.3) of the prediction
 //! error u = x_t − x̂_e,t from y = z_t − x̂_e,t = u + θ, with a separable model of u fitted
 //! to the steady state (by the caller; frame 0, predicted by zero, uses the field's own
-//! spatial model).
+//! spatial model). For n_t ≥ 2 the previous estimate is also corrected by the newest
+//! frame, x̂_{t−1|t} = x̂_{t−1} + c·û_t (a fixed-lag-1 smoothing step with a constant gain c
+//! fitted with the model of u), and the next prediction uses the corrected pair.
 
 use super::{check_model, check_pixels, check_sizes};
 use crate::error::{try_zeros, FieldError, Result};
@@ -19,9 +21,12 @@ pub struct FastSequenceFilter {
     steady: ScalarRowFilter,
     /// The time axis' stationary-start recursion: position t < n_t predicts from t frames.
     recursion: AxisRecursion<f64>,
+    /// The gain c of the previous estimate's correction by the newest û (n_t ≥ 2).
+    smoothing: f64,
     noise_var: f64,
     height: usize,
-    /// The last n_t estimates, newest first (frame-major).
+    /// The last n_t estimates, newest first (frame-major); the older ones corrected by the
+    /// newer frames.
     history: Vec<f64>,
     frames: u64,
     /// Scratch frames reused by every step (fresh 8 MB buffers per 1024² frame cost page
@@ -33,15 +38,22 @@ pub struct FastSequenceFilter {
 
 impl FastSequenceFilter {
     /// The filter of `model` (axes t, y, x) for height × width frames with noise variance
-    /// `noise_var`; `error_model`: the 2-axis model of the steady prediction error.
+    /// `noise_var`; `error_model`: the 2-axis model of the steady prediction error;
+    /// `smoothing`: the gain c of the previous estimate's correction (unused for n_t = 1).
     pub fn new(
         model: &FieldModel,
         error_model: &FieldModel,
+        smoothing: f64,
         noise_var: f64,
         height: usize,
         width: usize,
     ) -> Result<Self> {
         check_model(model)?;
+        if !smoothing.is_finite() {
+            return Err(FieldError::InvalidParameter(format!(
+                "the smoothing gain must be finite, got {smoothing}"
+            )));
+        }
         if height == 0 || width == 0 {
             return Err(FieldError::Shape("the frames must not be empty".into()));
         }
@@ -58,6 +70,7 @@ impl FastSequenceFilter {
             first: row_filter(&spatial)?,
             steady: row_filter(error_model)?,
             recursion: AxisRecursion::new(&axes[0], 1.0)?,
+            smoothing,
             noise_var,
             height,
             history: try_zeros(n_t * height * width, "the previous estimates")?,
@@ -125,7 +138,8 @@ impl FastSequenceFilter {
             &self.steady
         };
         filter.filter_image(&self.residual, weights, out, self.height, true)?;
-        // x̂ = x̂_e + û, and the history shifted by one frame with x̂ as the newest
+        // x̂ = x̂_e + û, and the history shifted by one frame with x̂ as the newest (for
+        // n_t ≥ 2 the previous estimate corrected first: x̂_{t−1|t} = x̂_{t−1} + c·û)
         let history = &mut self.history;
         match coefficients {
             &[a] if history.len() == size => {
@@ -135,8 +149,15 @@ impl FastSequenceFilter {
                 }
             }
             _ => {
+                let c = if self.frames == 0 {
+                    0.0
+                } else {
+                    self.smoothing
+                };
                 for (i, o) in out.iter_mut().enumerate() {
+                    let u = *o;
                     *o += predicted(coefficients, history, size, i);
+                    history[i] += c * u;
                 }
                 let kept = history.len() - size;
                 history.copy_within(0..kept, size);

@@ -13,7 +13,8 @@ stationary covariance λ Toeplitz(R_t)[:d, :d].
 2. ``modal_error_map``: the steady per-pixel error variance.
 3. ``fast_filter``: the prediction by the time axis' recursion + the smoothed row filter of
    the prediction error (frame 0 with the field's spatial model, later frames with the
-   error model).
+   error model); for n_t ≥ 2 the previous estimate corrected by c·û before the next
+   prediction.
 """
 
 from __future__ import annotations
@@ -111,9 +112,10 @@ def modal_error_map(rho, order, sigma, noise_var, shape, lag=0, tol=1e-15):
     return (uy**2) @ v.reshape(height, width) @ (ux**2).T
 
 
-def fast_filter(frames, rho, order, sigma, noise_var, error_model):
+def fast_filter(frames, rho, order, sigma, noise_var, error_model, smoothing=0.0):
     """The fast filter of ``frames`` (F, H, W); ``error_model`` = (rho, order, sigma) of the
-    2-axis model of the steady prediction error."""
+    2-axis model of the steady prediction error; ``smoothing`` = c, the gain of the
+    previous estimate's correction x̂_{t−1|t} = x̂_{t−1} + c·û_t (from frame 1 on)."""
     frames = np.asarray(frames, dtype=float)
     coeffs, _ = stationary_start(rho[0], order[0])
     spatial = (rho[1:], order[1:], sigma)
@@ -128,5 +130,7 @@ def fast_filter(frames, rho, order, sigma, noise_var, error_model):
         r, n, s = spatial if t == 0 else error_model
         u = scalar_row_filter(residual, r, n, s, noise_var, smooth=True, weights=weights)
         out[t] = prediction + u
+        if history and t > 0:
+            history[0] = history[0] + smoothing * u
         history = [out[t], *history][: order[0]]
     return out
