@@ -147,7 +147,7 @@ fn write_sequence(w: &mut Writer, s: &Sequence) {
     }
     s.feature.iter().for_each(|&v| w.f(v));
     s.feature_var.iter().for_each(|&v| w.f(v));
-    s.extent.iter().for_each(|&v| w.f(v));
+    s.bbox.iter().for_each(|&v| w.f(v));
     w.u(s.length as u64);
     w.u(s.window.len() as u64);
     for &(value, dof) in &s.window {
@@ -170,9 +170,9 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
     }
     let feature = [r.f()?, r.f()?];
     let feature_var = [r.f()?, r.f()?];
-    let extent = [r.f()?, r.f()?];
-    if extent.iter().any(|&e| e < 0.0) {
-        return Err(corrupt("a negative extent"));
+    let bbox = [r.f()?, r.f()?, r.f()?, r.f()?];
+    if bbox[0] > bbox[2] || bbox[1] > bbox[3] {
+        return Err(corrupt("a sequence box out of order"));
     }
     let length = r.usize(u64::MAX >> 1, "length")?;
     let n = r.usize(memory as u64, "window")?;
@@ -190,7 +190,7 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
         cov,
         feature,
         feature_var,
-        extent,
+        bbox,
         length,
         window,
         segment,
@@ -241,7 +241,7 @@ impl GroupTracker {
                 return Err(corrupt("a group id beyond the counter"));
             }
             let shared = [r.vector()?, r.vector()?];
-            let n = r.count(8 * 32, "sequence count")?;
+            let n = r.count(8 * 34, "sequence count")?;
             let mut sequences = Vec::with_capacity(n);
             for _ in 0..n {
                 sequences.push(read_sequence(&mut r, memory, tracker.next_sequence)?);

@@ -26,18 +26,6 @@ impl Measurement {
     pub(crate) fn features(&self) -> [f64; 2] {
         [self.amplitude, self.area.ln()]
     }
-    /// Width and height of the box (x1 − x0, y1 − y0).
-    pub(crate) fn extent(&self) -> [f64; 2] {
-        [self.bbox[2] - self.bbox[0], self.bbox[3] - self.bbox[1]]
-    }
-}
-
-/// Variance added per axis to a centroid measurement whose segment's extent changed by Δ
-/// from the sequence's last one: a fragment part that vanished or appeared at one edge moves
-/// the centroid by up to Δ/2 while the object does not move, so (Δ/2)² (method page, §3.4).
-pub(crate) fn partial_var(s: &Sequence, z: &Measurement) -> [f64; 2] {
-    let e = z.extent();
-    [0, 1].map(|axis| (0.5 * (e[axis] - s.extent[axis])).powi(2))
 }
 
 /// A fragment's sequence.
@@ -50,8 +38,8 @@ pub(crate) struct Sequence {
     /// Features: running sum before joining, then the Kalman estimate.
     pub feature: [f64; 2],
     pub feature_var: [f64; 2],
-    /// Box width and height of its last segment.
-    pub extent: [f64; 2],
+    /// Box of its last segment.
+    pub bbox: [f64; 4],
     /// Observations so far.
     pub length: usize,
     /// Index increments and their degrees of freedom, oldest first (at most N).
@@ -104,11 +92,28 @@ impl Filters<'_> {
             cov,
             feature: z.features(),
             feature_var: [0.0; 2],
-            extent: z.extent(),
+            bbox: z.bbox,
             length: 1,
             window: Vec::new(),
             segment: None,
         }
+    }
+
+    /// Variance added per axis to the centroid of a *partial* segment: its box kept one edge
+    /// of the sequence's last box moved by the sequence's velocity (within one pixel) while its
+    /// extent changed by Δ — a fragment vanished or reappeared at the other edge, which moves
+    /// the centroid by up to Δ/2 while the object does not move: (Δ/2)² (method page, §3.4).
+    pub fn partial_var(&self, s: &Sequence, z: &Measurement) -> [f64; 2] {
+        [0, 1].map(|axis| {
+            let shift = s.state[axis][1] * self.config.dt;
+            let lo = z.bbox[axis] - s.bbox[axis] - shift;
+            let hi = z.bbox[axis + 2] - s.bbox[axis + 2] - shift;
+            if lo.abs().min(hi.abs()) <= 1.0 {
+                (0.5 * (hi - lo)).powi(2)
+            } else {
+                0.0
+            }
+        })
     }
 
     fn joined(&self, s: &Sequence) -> bool {
@@ -150,7 +155,7 @@ impl Filters<'_> {
     /// The index increment of measurement `z` and its degrees of freedom ((3.4) + (3.6)).
     pub fn increment(&self, s: &Sequence, p: &Prediction, z: &Measurement) -> (f64, usize) {
         let pos = z.position();
-        let partial = partial_var(s, z);
+        let partial = self.partial_var(s, z);
         let mut value = 0.0;
         for axis in 0..2 {
             value += (pos[axis] - p.centre[axis]).powi(2) / (p.centroid_var[axis] + partial[axis]);
@@ -172,7 +177,7 @@ impl Filters<'_> {
         let d = self.d();
         let r = self.config.position_std.powi(2);
         let pos = z.position();
-        let partial = partial_var(s, z);
+        let partial = self.partial_var(s, z);
         for axis in 0..2 {
             let x = apply(&self.f, &s.state[axis], d);
             let p = propagate(&self.f, &s.cov[axis], &self.q, d);
@@ -214,7 +219,7 @@ impl Filters<'_> {
             s.window.remove(0);
         }
         s.window.push(increment);
-        s.extent = z.extent();
+        s.bbox = z.bbox;
         s.length += 1;
     }
 }

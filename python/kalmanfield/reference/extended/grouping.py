@@ -56,7 +56,7 @@ class Sequence:
     cov: np.ndarray  # (2, 3, 3)
     feature: np.ndarray  # (2,)
     feature_var: np.ndarray  # (2,)
-    extent: np.ndarray  # (2,): box width, height of its last segment
+    bbox: np.ndarray  # (4,): box of its last segment
     length: int = 1
     window: list = field(default_factory=list)
     segment: int | None = None
@@ -75,15 +75,6 @@ class Group:
 
 def _features(z: np.ndarray) -> np.ndarray:
     return np.array([z[2], math.log(z[3])])
-
-
-def _extent(z: np.ndarray) -> np.ndarray:
-    return np.array([z[6] - z[4], z[7] - z[5]])
-
-
-def _partial_var(s: Sequence, z: np.ndarray) -> np.ndarray:
-    """(Δ/2)² per axis: Δ the change of the box extent from the sequence's last segment."""
-    return (0.5 * (_extent(z) - s.extent)) ** 2
 
 
 def _propagate(F: np.ndarray, P: np.ndarray, Q: np.ndarray, d: int) -> np.ndarray:
@@ -137,9 +128,18 @@ class GroupTracker:
         cov[:, 0, 0] = c["position_std"] ** 2
         for k in range(1, d):
             cov[:, k, k] = (c["initial_speed_std"] / c["dt"] ** (k - 1)) ** 2
-        s = Sequence(self.next_sequence, state, cov, _features(z), np.zeros(2), _extent(z))
+        s = Sequence(self.next_sequence, state, cov, _features(z), np.zeros(2), z[4:8].copy())
         self.next_sequence += 1
         return s
+
+    def _partial_var(self, s: Sequence, z: np.ndarray) -> np.ndarray:
+        """(Δ/2)² per axis where the box kept one edge (±1 px) of the last one moved by the
+        sequence's velocity and its extent changed by Δ; 0 elsewhere."""
+        shift = s.state[:, 1] * self.c["dt"]
+        lo = z[4:6] - s.bbox[:2] - shift
+        hi = z[6:8] - s.bbox[2:] - shift
+        kept = np.minimum(np.abs(lo), np.abs(hi)) <= 1.0
+        return np.where(kept, (0.5 * (hi - lo)) ** 2, 0.0)
 
     def _joined(self, s: Sequence) -> bool:
         return s.length > self.c["order"]
@@ -160,7 +160,7 @@ class GroupTracker:
 
     def _increment(self, s: Sequence, pred, z: np.ndarray) -> tuple[float, int]:
         centre, var, fvar, _, _ = pred
-        value = float(np.sum((z[:2] - centre) ** 2 / (var + _partial_var(s, z))))
+        value = float(np.sum((z[:2] - centre) ** 2 / (var + self._partial_var(s, z))))
         dof = 2
         if fvar is not None:
             value += float(np.sum((_features(z) - s.feature) ** 2 / fvar))
@@ -169,7 +169,7 @@ class GroupTracker:
 
     def _update(self, s: Sequence, z: np.ndarray, increment: tuple[float, int]) -> None:
         c, d = self.c, self.c["order"] + 1
-        r = c["position_std"] ** 2 + _partial_var(s, z)
+        r = c["position_std"] ** 2 + self._partial_var(s, z)
         for axis in range(2):
             x = self.F[:d, :d] @ s.state[axis, :d]
             P = _propagate(self.F, s.cov[axis], self.Q, d)
@@ -191,7 +191,7 @@ class GroupTracker:
         if len(s.window) >= c["memory"]:
             s.window.pop(0)
         s.window.append(increment)
-        s.extent = _extent(z)
+        s.bbox = z[4:8].copy()
         s.length += 1
 
     # -- groups ------------------------------------------------------------------------------
