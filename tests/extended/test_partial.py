@@ -7,27 +7,12 @@ fragment joins the group instead of starting a new object."""
 from __future__ import annotations
 
 import numpy as np
+from test_stage2 import CONFIG as STAGE2
 
 from kalmanfield import _core
 from kalmanfield.reference.extended import GroupTracker as TwinTracker
 
-CONFIG = dict(
-    order=1,
-    dt=1.0,
-    position_std=0.3,
-    process_std=0.05,
-    amplitude_std=2.0,
-    log_area_std=0.5,
-    feature_drift=0.5,
-    confidence=0.99,
-    memory=4,
-    initial_speed_std=3.0,
-    gate_margin=2.0,
-    min_speed=0.25,
-    velocity_tolerance=0.5,
-    max_misses=2,
-    seed_groups=True,
-)
+CONFIG = dict(STAGE2, gate_margin=2.0)
 
 V = (3.0, 0.0)
 
