@@ -10,7 +10,7 @@ use super::sequence::Sequence;
 use super::tracker::GroupTracker;
 use crate::{FieldError, Result};
 
-const TAG: &[u8; 8] = b"KFEXT\x00\x00\x01";
+const TAG: &[u8; 8] = b"KFEXT\x00\x00\x02";
 
 struct Writer(Vec<u8>);
 
@@ -147,6 +147,7 @@ fn write_sequence(w: &mut Writer, s: &Sequence) {
     }
     s.feature.iter().for_each(|&v| w.f(v));
     s.feature_var.iter().for_each(|&v| w.f(v));
+    s.bbox.iter().for_each(|&v| w.f(v));
     w.u(s.length as u64);
     w.u(s.window.len() as u64);
     for &(value, dof) in &s.window {
@@ -169,6 +170,10 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
     }
     let feature = [r.f()?, r.f()?];
     let feature_var = [r.f()?, r.f()?];
+    let bbox = [r.f()?, r.f()?, r.f()?, r.f()?];
+    if bbox[0] > bbox[2] || bbox[1] > bbox[3] {
+        return Err(corrupt("a sequence box out of order"));
+    }
     let length = r.usize(u64::MAX >> 1, "length")?;
     let n = r.usize(memory as u64, "window")?;
     let mut window = Vec::with_capacity(n);
@@ -185,6 +190,7 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
         cov,
         feature,
         feature_var,
+        bbox,
         length,
         window,
         segment,
@@ -212,6 +218,7 @@ impl GroupTracker {
             g.bbox.iter().for_each(|&v| w.f(v));
             w.u(g.misses as u64);
             w.u(g.frames_detected as u64);
+            w.u(g.held as u64);
         }
         w.0
     }
@@ -226,7 +233,7 @@ impl GroupTracker {
         tracker.next_group = r.u()?;
         tracker.next_sequence = r.u()?;
         tracker.frame = r.u()?;
-        let n_groups = r.count(8 * 10, "group count")?;
+        let n_groups = r.count(8 * 11, "group count")?;
         let memory = tracker.config.memory;
         for _ in 0..n_groups {
             let id = r.u()?;
@@ -234,7 +241,7 @@ impl GroupTracker {
                 return Err(corrupt("a group id beyond the counter"));
             }
             let shared = [r.vector()?, r.vector()?];
-            let n = r.count(8 * 30, "sequence count")?;
+            let n = r.count(8 * 34, "sequence count")?;
             let mut sequences = Vec::with_capacity(n);
             for _ in 0..n {
                 sequences.push(read_sequence(&mut r, memory, tracker.next_sequence)?);
@@ -242,6 +249,7 @@ impl GroupTracker {
             let bbox = [r.f()?, r.f()?, r.f()?, r.f()?];
             let misses = r.usize(u64::MAX >> 1, "misses")?;
             let frames_detected = r.usize(u64::MAX >> 1, "frames_detected")?;
+            let held = r.usize(memory as u64, "held")?;
             tracker.groups.push(Group {
                 id,
                 shared,
@@ -249,6 +257,7 @@ impl GroupTracker {
                 bbox,
                 misses,
                 frames_detected,
+                held,
             });
         }
         if !r.0.is_empty() {

@@ -18,6 +18,8 @@ pub(crate) struct Group {
     pub misses: usize,
     /// Frames in which it was detected (had a member).
     pub frames_detected: usize,
+    /// Frames in a row its box was held at the predicted extent (at most N).
+    pub held: usize,
 }
 
 pub(crate) fn velocity(state: &[Vector; 2]) -> [f64; 2] {
@@ -55,6 +57,22 @@ impl Group {
         ]
     }
 
+    /// The box after a frame whose segments span `seen`: when `seen` is narrower or lower (by
+    /// a pixel or more) than the previous box moved by the shared velocity (`predicted`), a fragment is missing, not
+    /// the object: the box keeps the union of both, for at most `memory` frames in a row.
+    pub fn hold(&mut self, seen: [f64; 4], predicted: [f64; 4], memory: usize) {
+        // boxes are in whole pixels: narrower means by one pixel at least
+        let smaller = seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0
+            || seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0;
+        if smaller && self.held < memory {
+            self.bbox = union(seen, predicted);
+            self.held += 1;
+        } else {
+            self.bbox = seen;
+            self.held = 0;
+        }
+    }
+
     pub fn centre(&self) -> [f64; 2] {
         [
             0.5 * (self.bbox[0] + self.bbox[2]),
@@ -72,7 +90,8 @@ impl Group {
     }
 
     /// Step 7, (3.5): the shared derivatives become the mean of the confirmed sequences'
-    /// own ones — over those whose velocity lies within `velocity_tolerance` of the previous
+    /// own ones, each weighted by its precision 1/P_kk (a sequence just restarted at a
+    /// fragment's new segment knows little of the velocity and counts little) — over those whose velocity lies within `velocity_tolerance` of the previous
     /// shared velocity when there are any (a spot of the background that fell into the gate
     /// does not drag the group), over all otherwise.
     pub fn refresh_shared(&mut self, config: &GroupConfig) {
@@ -90,10 +109,15 @@ impl Group {
         if chosen.is_empty() {
             return;
         }
-        let n = chosen.len() as f64;
         for axis in 0..2 {
             for k in 1..=config.order {
-                self.shared[axis][k] = chosen.iter().map(|s| s.state[axis][k]).sum::<f64>() / n;
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for s in &chosen {
+                    let w = 1.0 / s.cov[axis][k][k].max(f64::MIN_POSITIVE);
+                    sum += w * s.state[axis][k];
+                    weight += w;
+                }
+                self.shared[axis][k] = sum / weight;
             }
         }
     }

@@ -38,6 +38,8 @@ pub(crate) struct Sequence {
     /// Features: running sum before joining, then the Kalman estimate.
     pub feature: [f64; 2],
     pub feature_var: [f64; 2],
+    /// Box of its last segment.
+    pub bbox: [f64; 4],
     /// Observations so far.
     pub length: usize,
     /// Index increments and their degrees of freedom, oldest first (at most N).
@@ -90,10 +92,28 @@ impl Filters<'_> {
             cov,
             feature: z.features(),
             feature_var: [0.0; 2],
+            bbox: z.bbox,
             length: 1,
             window: Vec::new(),
             segment: None,
         }
+    }
+
+    /// Variance added per axis to the centroid of a *partial* segment: its box kept one edge
+    /// of the sequence's last box moved by the sequence's velocity (within one pixel) while its
+    /// extent changed by Δ — a fragment vanished or reappeared at the other edge, which moves
+    /// the centroid by up to Δ/2 while the object does not move: (Δ/2)² (method page, §3.4).
+    pub fn partial_var(&self, s: &Sequence, z: &Measurement) -> [f64; 2] {
+        [0, 1].map(|axis| {
+            let shift = s.state[axis][1] * self.config.dt;
+            let lo = z.bbox[axis] - s.bbox[axis] - shift;
+            let hi = z.bbox[axis + 2] - s.bbox[axis + 2] - shift;
+            if lo.abs().min(hi.abs()) <= 1.0 {
+                (0.5 * (hi - lo)).powi(2)
+            } else {
+                0.0
+            }
+        })
     }
 
     fn joined(&self, s: &Sequence) -> bool {
@@ -135,9 +155,10 @@ impl Filters<'_> {
     /// The index increment of measurement `z` and its degrees of freedom ((3.4) + (3.6)).
     pub fn increment(&self, s: &Sequence, p: &Prediction, z: &Measurement) -> (f64, usize) {
         let pos = z.position();
+        let partial = self.partial_var(s, z);
         let mut value = 0.0;
         for axis in 0..2 {
-            value += (pos[axis] - p.centre[axis]).powi(2) / p.centroid_var[axis];
+            value += (pos[axis] - p.centre[axis]).powi(2) / (p.centroid_var[axis] + partial[axis]);
         }
         let mut dof = CENTROID_DOF;
         if let Some(var) = p.feature_var {
@@ -156,11 +177,12 @@ impl Filters<'_> {
         let d = self.d();
         let r = self.config.position_std.powi(2);
         let pos = z.position();
+        let partial = self.partial_var(s, z);
         for axis in 0..2 {
             let x = apply(&self.f, &s.state[axis], d);
             let p = propagate(&self.f, &s.cov[axis], &self.q, d);
             let innovation = pos[axis] - x[0];
-            let dvar = p[0][0] + r;
+            let dvar = p[0][0] + r + partial[axis];
             let mut state = [0.0; DIM];
             let mut cov = [[0.0; DIM]; DIM];
             for i in 0..d {
@@ -197,6 +219,7 @@ impl Filters<'_> {
             s.window.remove(0);
         }
         s.window.push(increment);
+        s.bbox = z.bbox;
         s.length += 1;
     }
 }

@@ -149,6 +149,7 @@ impl GroupTracker {
             bbox,
             misses: 0,
             frames_detected: 0,
+            held: 0,
         });
         id
     }
@@ -258,7 +259,8 @@ impl GroupTracker {
         }
     }
 
-    /// Step 7 (3.5) per group, its box, its misses; groups missed too long die.
+    /// Step 7 (3.5) per group, its box (held at the object's extent while fragments are
+    /// missing, see `Group::hold`), its misses; groups missed too long die.
     fn refresh_groups(&mut self, segments: &[Measurement]) {
         let config = self.config.clone();
         for group in &mut self.groups {
@@ -271,13 +273,15 @@ impl GroupTracker {
                 continue;
             }
             group.misses = 0;
+            let predicted = group.predicted_box(config.dt);
             group.refresh_shared(&config);
             let mut boxes = group
                 .sequences
                 .iter()
                 .filter_map(|s| s.segment.map(|r| segments[r].bbox));
             if let Some(first) = boxes.next() {
-                group.bbox = boxes.fold(first, union);
+                let seen = boxes.fold(first, union);
+                group.hold(seen, predicted, config.memory);
             }
         }
         self.groups.retain(|g| g.misses <= config.max_misses);
@@ -400,6 +404,7 @@ impl GroupTracker {
                     a.bbox = union(a.bbox, b.bbox);
                     a.frames_detected = a.frames_detected.max(b.frames_detected);
                     a.misses = a.misses.min(b.misses);
+                    a.held = a.held.min(b.held);
                 } else {
                     j += 1;
                 }

@@ -56,6 +56,7 @@ class Sequence:
     cov: np.ndarray  # (2, 3, 3)
     feature: np.ndarray  # (2,)
     feature_var: np.ndarray  # (2,)
+    bbox: np.ndarray  # (4,): box of its last segment
     length: int = 1
     window: list = field(default_factory=list)
     segment: int | None = None
@@ -69,6 +70,7 @@ class Group:
     bbox: np.ndarray = field(default_factory=lambda: np.zeros(4))
     misses: int = 0
     frames_detected: int = 0
+    held: int = 0
 
 
 def _features(z: np.ndarray) -> np.ndarray:
@@ -126,9 +128,18 @@ class GroupTracker:
         cov[:, 0, 0] = c["position_std"] ** 2
         for k in range(1, d):
             cov[:, k, k] = (c["initial_speed_std"] / c["dt"] ** (k - 1)) ** 2
-        s = Sequence(self.next_sequence, state, cov, _features(z), np.zeros(2))
+        s = Sequence(self.next_sequence, state, cov, _features(z), np.zeros(2), z[4:8].copy())
         self.next_sequence += 1
         return s
+
+    def _partial_var(self, s: Sequence, z: np.ndarray) -> np.ndarray:
+        """(Δ/2)² per axis where the box kept one edge (±1 px) of the last one moved by the
+        sequence's velocity and its extent changed by Δ; 0 elsewhere."""
+        shift = s.state[:, 1] * self.c["dt"]
+        lo = z[4:6] - s.bbox[:2] - shift
+        hi = z[6:8] - s.bbox[2:] - shift
+        kept = np.minimum(np.abs(lo), np.abs(hi)) <= 1.0
+        return np.where(kept, (0.5 * (hi - lo)) ** 2, 0.0)
 
     def _joined(self, s: Sequence) -> bool:
         return s.length > self.c["order"]
@@ -149,7 +160,7 @@ class GroupTracker:
 
     def _increment(self, s: Sequence, pred, z: np.ndarray) -> tuple[float, int]:
         centre, var, fvar, _, _ = pred
-        value = float(np.sum((z[:2] - centre) ** 2 / var))
+        value = float(np.sum((z[:2] - centre) ** 2 / (var + self._partial_var(s, z))))
         dof = 2
         if fvar is not None:
             value += float(np.sum((_features(z) - s.feature) ** 2 / fvar))
@@ -158,11 +169,11 @@ class GroupTracker:
 
     def _update(self, s: Sequence, z: np.ndarray, increment: tuple[float, int]) -> None:
         c, d = self.c, self.c["order"] + 1
-        r = c["position_std"] ** 2
+        r = c["position_std"] ** 2 + self._partial_var(s, z)
         for axis in range(2):
             x = self.F[:d, :d] @ s.state[axis, :d]
             P = _propagate(self.F, s.cov[axis], self.Q, d)
-            dvar = P[0, 0] + r
+            dvar = P[0, 0] + r[axis]
             s.state[axis, :d] = x + P[:, 0] / dvar * (z[axis] - x[0])
             s.cov[axis, :d, :d] = P - np.outer(P[:, 0], P[0, :]) / dvar
         f, std = _features(z), self._feature_std()
@@ -180,6 +191,7 @@ class GroupTracker:
         if len(s.window) >= c["memory"]:
             s.window.pop(0)
         s.window.append(increment)
+        s.bbox = z[4:8].copy()
         s.length += 1
 
     # -- groups ------------------------------------------------------------------------------
@@ -195,7 +207,10 @@ class GroupTracker:
         if not chosen:
             return
         for k in range(1, c["order"] + 1):
-            g.shared[:, k] = sum(s.state[:, k] for s in chosen) / len(chosen)
+            # each sequence weighted by its precision 1/P_kk
+            w = np.array([1.0 / np.maximum(s.cov[:, k, k], np.finfo(float).tiny) for s in chosen])
+            x = np.array([s.state[:, k] for s in chosen])
+            g.shared[:, k] = (w * x).sum(axis=0) / w.sum(axis=0)
 
     def _is_member(self, g: Group, s: Sequence) -> bool:
         c, v = self.c, s.state[:, 1]
@@ -205,6 +220,18 @@ class GroupTracker:
             and math.hypot(v[0], v[1]) > c["min_speed"]
             and math.hypot(*(v - g.shared[:, 1])) <= c["velocity_tolerance"]
         )
+
+    def _hold(self, g: Group, seen: np.ndarray, predicted: np.ndarray) -> None:
+        """A box narrower or lower than the predicted one: a fragment is missing, the box
+        keeps the union of both (at most N frames in a row)."""
+        smaller = (
+            seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0
+            or seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0
+        )
+        if smaller and g.held < self.c["memory"]:
+            g.bbox, g.held = self._union(seen, predicted), g.held + 1
+        else:
+            g.bbox, g.held = seen, 0
 
     @staticmethod
     def _union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -256,12 +283,13 @@ class GroupTracker:
                 g.bbox = g.bbox + np.array([v[0], v[1], v[0], v[1]]) * c["dt"]
                 continue
             g.misses = 0
+            moved = g.bbox + np.array([g.shared[0, 1], g.shared[1, 1]] * 2) * c["dt"]
             self._refresh_shared(g)
             boxes = [z_all[s.segment, 4:8] for s in g.sequences]
             box = boxes[0]
             for b in boxes[1:]:
                 box = self._union(box, b)
-            g.bbox = box
+            self._hold(g, box, moved)
         self.groups = [g for g in self.groups if g.misses <= c["max_misses"]]
         self._split(z_all)
         self._start_new(z_all, seg_group, seg_seq, predicted)
@@ -355,6 +383,7 @@ class GroupTracker:
                     a.bbox = self._union(a.bbox, b.bbox)
                     a.frames_detected = max(a.frames_detected, b.frames_detected)
                     a.misses = min(a.misses, b.misses)
+                    a.held = min(a.held, b.held)
                 else:
                     j += 1
             i += 1
