@@ -120,11 +120,12 @@ def test_the_numbers(report):
     types = numbers["types"]
     assert types["targets"] == 6 and 0 <= types["correct"] <= types["targets"]
     # each extended object has a detected object's centre within its radius in 90–95 % of its
-    # frames (seeds 0–5), and the one on it longest has its velocity
+    # frames, one detected object follows it for 36–38 of the 40 frames, 1–3 cover it (seeds
+    # 0–5); the one on it longest has its velocity
     extended = numbers["extended_objects"]
     assert extended["objects"] == 2 and len(extended["per_object"]) == 2
     for found in extended["per_object"]:
-        assert found["P_o"] > 0.75 and found["longest"] >= 5
+        assert found["P_o"] > 0.75 and found["longest"] >= 30 and found["detected_as"] <= 4
         assert np.hypot(*np.subtract(found["v_found"], found["v_true"])) < 0.25
 
 

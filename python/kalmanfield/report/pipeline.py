@@ -31,7 +31,7 @@ from .metrics import (
     identity_scores,
     type_confusion_matrix,
 )
-from .scene import EXTENDED_RADIUS, Scene, simulate_scene
+from .scene import EXTENDED_RADIUS, FRAGMENT_GAP, Scene, simulate_scene
 
 #: the tracker of the demo (px, frames): nearly constant velocity with rare manoeuvres
 TRACKER: dict[str, Any] = dict(
@@ -266,7 +266,10 @@ def run_demo(settings: DemoSettings) -> DemoResult:
     names = [m.name for m in scene.types]
     confusion = type_confusion_matrix(decided, scene.truth, follows, names)
     step("types identified")
-    objects = detect_moving_objects(detect, noise_std=1.0, threshold=settings.threshold)
+    # the group gate bridges the gap between an object's fragments (default 2 px: touching)
+    objects = detect_moving_objects(
+        detect, noise_std=1.0, threshold=settings.threshold, gate_margin=FRAGMENT_GAP
+    )
     extended = extended_scores(scene.extended, [o.track for o in objects], EXTENDED_RADIUS)
     step("extended objects detected")
     numbers = _numbers(settings, scene, filtering, scores, p_o, changes, confusion, tracks)
