@@ -183,11 +183,10 @@ def farther(hyp: pd.DataFrame, centres: pd.DataFrame, radius: float) -> np.ndarr
     """True for the rows of `hyp` (frame, x, y, …) farther than `radius` from every row of
     `centres` (frame, x, y) in the same frame."""
     keep = np.ones(len(hyp), bool)
-    frame = hyp["frame"].to_numpy()
+    frame, xy = hyp["frame"].to_numpy(), hyp[["x", "y"]].to_numpy()
     for f, c in centres.groupby("frame"):
         rows = np.flatnonzero(frame == f)
-        xy = hyp[["x", "y"]].to_numpy()[rows]
-        d = np.hypot(*(xy[:, None, :] - c[["x", "y"]].to_numpy()[None]).transpose(2, 0, 1))
+        d = np.hypot(*(xy[rows, None, :] - c[["x", "y"]].to_numpy()[None]).transpose(2, 0, 1))
         keep[rows] = (d > radius).all(axis=1)
     return keep
 

@@ -16,6 +16,7 @@ import tqdm
 
 from .. import __version__
 from ..extended import DetectedObject, detect_moving_objects
+from ..field import ARFieldModel
 from ..filterbank import TypeIdentifier
 from ..identification import model_from_noisy
 from ..rowfilter import ScalarRowFilter, wiener_bound
@@ -103,7 +104,9 @@ def _clutter_pixels(scene: Scene) -> np.ndarray:
     return mask
 
 
-def _fit_clutter(observed: np.ndarray, threshold: float) -> tuple[Any, float, float, float]:
+def _fit_clutter(
+    observed: np.ndarray, threshold: float
+) -> tuple[ARFieldModel, float, float, float]:
     """The clutter's model, mean and noise variance fitted to the noisy frames twice: the
     second time without the pixels within 3 px of where the first fit's matched residual
     exceeds `threshold` (the targets and extended objects, which would bias the fit towards a
