@@ -459,6 +459,7 @@ class GroupTracker:
         gate_margin: float,
         min_speed: float,
         velocity_tolerance: float,
+        cohesion: float,
         max_misses: int,
         seed_groups: bool,
     ) -> GroupTracker: ...

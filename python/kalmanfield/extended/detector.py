@@ -476,7 +476,8 @@ def detect_moving_objects(
         subtract the w × w local mean of the smoothed frame first), min_area=3,
         connectivity=8, order=1, position_std=1.0, process_std, amplitude_std,
         log_area_std=0.5, feature_drift=0.5, initial_speed_std, gate_margin=2.0,
-        min_speed, velocity_tolerance, max_misses=2); see the method page.
+        min_speed, velocity_tolerance, cohesion=0.0 (c > 0: co-moving groups within c × their
+        size of each other are one object), max_misses=2); see the method page.
 
     Returns
     -------

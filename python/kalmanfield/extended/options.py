@@ -42,6 +42,10 @@ class DetectorOptions:
     min_speed: float | None = None
     #: members' velocities agree within it; default 0.5 px per frame
     velocity_tolerance: float | None = None
+    #: co-moving groups whose boxes lie within cohesion × the smaller one's extent of each
+    #: other become one object (0: off, only within gate_margin; 1: fragments spaced up to
+    #: their own size apart)
+    cohesion: float = 0.0
     max_misses: int = 2
 
     @classmethod
@@ -86,6 +90,7 @@ class DetectorOptions:
             "gate_margin": float(self.gate_margin),
             "min_speed": per_frame(self.min_speed, 0.25),
             "velocity_tolerance": per_frame(self.velocity_tolerance, 0.5),
+            "cohesion": float(self.cohesion),
             "max_misses": self.max_misses,
             "seed_groups": seed_groups,
         }

@@ -26,16 +26,6 @@ P_VANISH = 0.15
 EXTENDED_SPEED = 0.8
 #: an extended object covers the disc of this radius (px) around its centre
 EXTENDED_RADIUS = float(np.hypot(*FRAGMENT_OFFSETS.T).max() + FRAGMENT_DIAMETER / 2)
-#: the gap (px) between a fragment's edge and its nearest neighbour's: what the detector's
-#: group gate must bridge for the fragments to form one object
-FRAGMENT_GAP = float(
-    min(
-        np.hypot(*(FRAGMENT_OFFSETS[i] - FRAGMENT_OFFSETS[j]))
-        for i in range(len(FRAGMENT_OFFSETS))
-        for j in range(i)
-    )
-    - FRAGMENT_DIAMETER
-)
 
 
 def motion_types(measurement_std: float) -> list[LinearGaussianModel]:

@@ -10,7 +10,7 @@ use super::sequence::Sequence;
 use super::tracker::GroupTracker;
 use crate::{FieldError, Result};
 
-const TAG: &[u8; 8] = b"KFEXT\x00\x00\x02";
+const TAG: &[u8; 8] = b"KFEXT\x00\x00\x03";
 
 struct Writer(Vec<u8>);
 
@@ -102,6 +102,7 @@ fn write_config(w: &mut Writer, c: &GroupConfig) {
         c.gate_margin,
         c.min_speed,
         c.velocity_tolerance,
+        c.cohesion,
     ] {
         w.f(v);
     }
@@ -114,8 +115,8 @@ fn read_config(r: &mut Reader<'_>) -> Result<GroupConfig> {
     let [dt, position_std, process_std, amplitude_std, log_area_std, feature_drift, confidence] =
         [r.f()?, r.f()?, r.f()?, r.f()?, r.f()?, r.f()?, r.f()?];
     let memory = r.usize(MAX_MEMORY as u64, "memory")?;
-    let [initial_speed_std, gate_margin, min_speed, velocity_tolerance] =
-        [r.f()?, r.f()?, r.f()?, r.f()?];
+    let [initial_speed_std, gate_margin, min_speed, velocity_tolerance, cohesion] =
+        [r.f()?, r.f()?, r.f()?, r.f()?, r.f()?];
     let max_misses = r.usize(1 << 20, "max_misses")?;
     let seed_groups = r.usize(1, "seed_groups")? == 1;
     let config = GroupConfig {
@@ -132,6 +133,7 @@ fn read_config(r: &mut Reader<'_>) -> Result<GroupConfig> {
         gate_margin,
         min_speed,
         velocity_tolerance,
+        cohesion,
         max_misses,
         seed_groups,
     };
@@ -155,6 +157,8 @@ fn write_sequence(w: &mut Writer, s: &Sequence) {
         w.u(dof as u64);
     }
     w.u(s.segment.map_or(u64::MAX, |r| r as u64));
+    w.u(u64::from(s.offset.is_some()));
+    s.offset.unwrap_or_default().iter().for_each(|&v| w.f(v));
 }
 
 fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequence> {
@@ -184,6 +188,8 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
         u64::MAX => None,
         v => Some(usize::try_from(v).map_err(|_| corrupt("segment"))?),
     };
+    let has_offset = r.usize(1, "offset flag")? == 1;
+    let offset = [r.f()?, r.f()?];
     Ok(Sequence {
         id,
         state,
@@ -194,6 +200,7 @@ fn read_sequence(r: &mut Reader<'_>, memory: usize, next_id: u64) -> Result<Sequ
         length,
         window,
         segment,
+        offset: has_offset.then_some(offset),
     })
 }
 
@@ -219,6 +226,7 @@ impl GroupTracker {
             w.u(g.misses as u64);
             w.u(g.frames_detected as u64);
             w.u(g.held as u64);
+            w.f(g.area);
         }
         w.0
     }
@@ -233,7 +241,7 @@ impl GroupTracker {
         tracker.next_group = r.u()?;
         tracker.next_sequence = r.u()?;
         tracker.frame = r.u()?;
-        let n_groups = r.count(8 * 11, "group count")?;
+        let n_groups = r.count(8 * 12, "group count")?;
         let memory = tracker.config.memory;
         for _ in 0..n_groups {
             let id = r.u()?;
@@ -241,7 +249,7 @@ impl GroupTracker {
                 return Err(corrupt("a group id beyond the counter"));
             }
             let shared = [r.vector()?, r.vector()?];
-            let n = r.count(8 * 34, "sequence count")?;
+            let n = r.count(8 * 37, "sequence count")?;
             let mut sequences = Vec::with_capacity(n);
             for _ in 0..n {
                 sequences.push(read_sequence(&mut r, memory, tracker.next_sequence)?);
@@ -250,6 +258,10 @@ impl GroupTracker {
             let misses = r.usize(u64::MAX >> 1, "misses")?;
             let frames_detected = r.usize(u64::MAX >> 1, "frames_detected")?;
             let held = r.usize(memory as u64, "held")?;
+            let area = r.f()?;
+            if area < 0.0 {
+                return Err(corrupt("a negative group area"));
+            }
             tracker.groups.push(Group {
                 id,
                 shared,
@@ -258,6 +270,7 @@ impl GroupTracker {
                 misses,
                 frames_detected,
                 held,
+                area,
             });
         }
         if !r.0.is_empty() {

@@ -46,6 +46,10 @@ pub struct GroupConfig {
     pub min_speed: f64,
     /// Merge rule: |v_sequence − v_group| at most this (px per time unit); also the group merge.
     pub velocity_tolerance: f64,
+    /// Group merge: co-moving groups join when the gap between their boxes is at most this
+    /// many times the smaller one's extent (the fragments of one object lie about their own
+    /// size apart); 0 = only boxes within `gate_margin`.
+    pub cohesion: f64,
     /// Frames a group survives without any confirmed sequence.
     pub max_misses: usize,
     /// Whether segments outside every gate start new groups (mode "extended").
@@ -92,6 +96,7 @@ impl GroupConfig {
             (self.gate_margin, "gate_margin"),
             (self.min_speed, "min_speed"),
             (self.velocity_tolerance, "velocity_tolerance"),
+            (self.cohesion, "cohesion"),
         ] {
             check_scale(value, name, true)?;
         }

@@ -4,7 +4,7 @@
 
 use super::config::GroupConfig;
 use super::motion::Vector;
-use super::sequence::Sequence;
+use super::sequence::{Measurement, Sequence};
 
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Group {
@@ -20,7 +20,17 @@ pub(crate) struct Group {
     pub frames_detected: usize,
     /// Frames in a row its box was held at the predicted extent (at most N).
     pub held: usize,
+    /// Members' total area the object is known to cover (0: none yet); a frame whose members
+    /// cover less than `COMPLETE` of it misses a fragment (see `member_centre`).
+    pub area: f64,
 }
+
+/// Members covering this fraction of the group's area are the whole object.
+pub(crate) const COMPLETE: f64 = 0.9;
+
+/// Per frame the group's area decays by this factor towards its members' (an object that
+/// lost a fragment for good is whole again after a few frames).
+pub(crate) const AREA_DECAY: f64 = 0.98;
 
 pub(crate) fn velocity(state: &[Vector; 2]) -> [f64; 2] {
     [state[0][1], state[1][1]]
@@ -80,13 +90,20 @@ impl Group {
         ]
     }
 
-    /// Whether the two boxes, this one grown by `margin`, overlap.
-    pub fn touches(&self, other: &Group, margin: f64) -> bool {
+    /// The gap between the two boxes (pixels, the larger of the two axes; 0 when they
+    /// overlap): they touch within a margin m iff gap ≤ m.
+    pub fn gap(&self, other: &Group) -> f64 {
         let (a, b) = (self.bbox, other.bbox);
-        a[0] - margin <= b[2]
-            && b[0] <= a[2] + margin
-            && a[1] - margin <= b[3]
-            && b[1] <= a[3] + margin
+        (b[0] - a[2])
+            .max(a[0] - b[2])
+            .max(b[1] - a[3])
+            .max(a[1] - b[3])
+            .max(0.0)
+    }
+
+    /// The box's larger side in pixels (its bounds are inclusive pixel indices).
+    pub fn extent(&self) -> f64 {
+        (self.bbox[2] - self.bbox[0]).max(self.bbox[3] - self.bbox[1]) + 1.0
     }
 
     /// Step 7, (3.5): the shared derivatives become the mean of the confirmed sequences'
@@ -120,6 +137,44 @@ impl Group {
                 self.shared[axis][k] = sum / weight;
             }
         }
+    }
+
+    /// The object's centre from its members (`member[i]` for `sequences[i]`; at least one).
+    /// When they cover the object (their area at least `COMPLETE` of the group's), it is their
+    /// area-weighted mean filtered centroid and each member's offset from it is recorded;
+    /// when a fragment is missing, the area-weighted mean of the members' centroids minus
+    /// their offsets (members without one get theirs from that centre; when none has one, the
+    /// plain mean). The group's area follows the members' and decays by `AREA_DECAY` per
+    /// frame.
+    pub fn member_centre(&mut self, member: &[bool], segments: &[Measurement]) -> [f64; 2] {
+        let (mut total, mut plain, mut known, mut known_area) = (0.0, [0.0; 2], [0.0; 2], 0.0);
+        for (s, _) in self.sequences.iter().zip(member).filter(|(_, &m)| m) {
+            let Some(r) = s.segment else { continue };
+            let area = segments[r].area;
+            total += area;
+            for axis in 0..2 {
+                plain[axis] += area * s.state[axis][0];
+            }
+            if let Some(offset) = s.offset {
+                known_area += area;
+                for axis in 0..2 {
+                    known[axis] += area * (s.state[axis][0] - offset[axis]);
+                }
+            }
+        }
+        let complete = total >= COMPLETE * self.area;
+        self.area = total.max(AREA_DECAY * self.area);
+        let centre = if complete || known_area == 0.0 {
+            plain.map(|v| v / total)
+        } else {
+            known.map(|v| v / known_area)
+        };
+        for (s, _) in self.sequences.iter_mut().zip(member).filter(|(_, &m)| m) {
+            if complete || s.offset.is_none() {
+                s.offset = Some([s.state[0][0] - centre[0], s.state[1][0] - centre[1]]);
+            }
+        }
+        centre
     }
 
     /// Step 10: a confirmed sequence longer than ν + 1 whose own speed exceeds `min_speed`

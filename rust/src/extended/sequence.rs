@@ -46,6 +46,8 @@ pub(crate) struct Sequence {
     pub window: Vec<(f64, usize)>,
     /// Segment of the current frame, if confirmed in it.
     pub segment: Option<usize>,
+    /// Its centroid minus its group's centre, recorded while it is a member.
+    pub offset: Option<[f64; 2]>,
 }
 
 /// The gate values of a sequence for the current frame: predicted centroid (with the group's
@@ -96,6 +98,7 @@ impl Filters<'_> {
             length: 1,
             window: Vec::new(),
             segment: None,
+            offset: None,
         }
     }
 

@@ -15,6 +15,7 @@ fn config() -> GroupConfig {
         gate_margin: 4.0,
         min_speed: 0.25,
         velocity_tolerance: 0.5,
+        cohesion: 1.0,
         max_misses: 2,
         seed_groups: true,
     }

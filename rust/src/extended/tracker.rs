@@ -27,8 +27,9 @@ pub struct GroupTracker {
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroupReport {
     pub id: u64,
-    /// Object centre: area-weighted mean of the members' filtered centroids (of the confirmed
-    /// sequences when there is no member, else the box centre).
+    /// Object centre: from the members' filtered centroids and offsets
+    /// (`Group::member_centre`); without a member the area-weighted mean of the confirmed
+    /// sequences' centroids, else the box centre.
     pub x: f64,
     pub y: f64,
     pub vx: f64,
@@ -150,6 +151,7 @@ impl GroupTracker {
             misses: 0,
             frames_detected: 0,
             held: 0,
+            area: 0.0,
         });
         id
     }
@@ -303,7 +305,8 @@ impl GroupTracker {
             group.sequences = stay;
             leaving.extend(go);
         }
-        for s in leaving {
+        for mut s in leaving {
+            s.offset = None;
             let mut shared = s.state;
             shared[0][0] = 0.0;
             shared[1][0] = 0.0;
@@ -375,9 +378,10 @@ impl GroupTracker {
         }
     }
 
-    /// Groups whose boxes touch and whose shared velocities agree (both with a sequence
-    /// longer than ν + 1) become one: the younger joins the older (SPEC §3.4, step 10 at the
-    /// level of groups).
+    /// Groups whose shared velocities agree, both with a sequence longer than ν + 1, whose
+    /// boxes lie within `gate_margin` or within `cohesion` × the smaller one's extent of each
+    /// other, become one: the younger joins the older (SPEC §3.4, step 10 at the level of
+    /// groups) and its sequences' offsets from the centre are recorded afresh.
     fn merge_groups(&mut self) -> Vec<(u64, u64)> {
         let config = &self.config;
         let mut merged = Vec::new();
@@ -389,7 +393,10 @@ impl GroupTracker {
                 let (a, b) = (&self.groups[i], &self.groups[j]);
                 let agree =
                     distance(velocity(&a.shared), velocity(&b.shared)) <= config.velocity_tolerance;
-                if a.touches(b, config.gate_margin) && mature(a) && mature(b) && agree {
+                let reach = config
+                    .gate_margin
+                    .max(config.cohesion * a.extent().min(b.extent()));
+                if a.gap(b) <= reach && mature(a) && mature(b) && agree {
                     let b = self.groups.remove(j);
                     let a = &mut self.groups[i];
                     merged.push((b.id, a.id));
@@ -400,7 +407,20 @@ impl GroupTracker {
                                 (na * a.shared[axis][k] + nb * b.shared[axis][k]) / (na + nb);
                         }
                     }
-                    a.sequences.extend(b.sequences);
+                    // one set of offsets survives: the older group's, unless only the
+                    // younger had members
+                    let keep_b = a.area == 0.0 && b.area > 0.0;
+                    let mut joining = b.sequences;
+                    let fresh = if keep_b {
+                        &mut a.sequences
+                    } else {
+                        &mut joining
+                    };
+                    fresh.iter_mut().for_each(|s| s.offset = None);
+                    if keep_b {
+                        a.area = b.area;
+                    }
+                    a.sequences.extend(joining);
                     a.bbox = union(a.bbox, b.bbox);
                     a.frames_detected = a.frames_detected.max(b.frames_detected);
                     a.misses = a.misses.min(b.misses);
@@ -414,33 +434,30 @@ impl GroupTracker {
         merged
     }
 
-    /// Step 10 and the answer: members, detection, centre.
+    /// Step 10 and the answer: members, detection, centre (`Group::member_centre`; without
+    /// a member, the area-weighted mean of the segments it holds, else its box centre).
     fn report(&mut self, segments: &[Measurement], answer: &mut FrameAnswer) {
         for group in &mut self.groups {
-            let mut members = 0;
-            let (mut wx, mut wy, mut w) = (0.0, 0.0, 0.0);
+            let member: Vec<bool> = group
+                .sequences
+                .iter()
+                .map(|s| group.is_member(s, &self.config))
+                .collect();
             let (mut ax, mut ay, mut aw) = (0.0, 0.0, 0.0);
-            for s in &group.sequences {
+            for (s, &m) in group.sequences.iter().zip(&member) {
                 let Some(r) = s.segment else { continue };
                 let area = segments[r].area;
                 answer.segment_group[r] = group.id as i64;
                 answer.segment_sequence[r] = s.id as i64;
+                answer.segment_member[r] = m;
                 ax += area * s.state[0][0];
                 ay += area * s.state[1][0];
                 aw += area;
-                if group.is_member(s, &self.config) {
-                    answer.segment_member[r] = true;
-                    members += 1;
-                    wx += area * s.state[0][0];
-                    wy += area * s.state[1][0];
-                    w += area;
-                }
             }
-            if members > 0 {
+            let members = member.iter().filter(|&&m| m).count();
+            let centre = if members > 0 {
                 group.frames_detected += 1;
-            }
-            let centre = if w > 0.0 {
-                [wx / w, wy / w]
+                group.member_centre(&member, segments)
             } else if aw > 0.0 {
                 [ax / aw, ay / aw]
             } else {

@@ -124,7 +124,7 @@ impl PyGroupTracker {
     #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (*, order, dt, position_std, process_std, amplitude_std, log_area_std,
         feature_drift, confidence, memory, initial_speed_std, gate_margin, min_speed,
-        velocity_tolerance, max_misses, seed_groups))]
+        velocity_tolerance, cohesion, max_misses, seed_groups))]
     fn new(
         order: usize,
         dt: f64,
@@ -139,6 +139,7 @@ impl PyGroupTracker {
         gate_margin: f64,
         min_speed: f64,
         velocity_tolerance: f64,
+        cohesion: f64,
         max_misses: usize,
         seed_groups: bool,
     ) -> PyResult<Self> {
@@ -156,6 +157,7 @@ impl PyGroupTracker {
             gate_margin,
             min_speed,
             velocity_tolerance,
+            cohesion,
             max_misses,
             seed_groups,
         };

@@ -3,7 +3,8 @@ objects*, §3.4): same rules, same loop order and tie-breaks, so both give the s
 
 A configuration is a dict with the fields of the Rust ``GroupConfig`` (order, dt,
 position_std, process_std, amplitude_std, log_area_std, feature_drift, confidence, memory,
-initial_speed_std, gate_margin, min_speed, velocity_tolerance, max_misses, seed_groups). A
+initial_speed_std, gate_margin, min_speed, velocity_tolerance, cohesion, max_misses,
+seed_groups). A
 frame's segments are an (m, 8) array: x, y, amplitude, area, bbox x0, y0, x1, y1.
 """
 
@@ -20,6 +21,10 @@ from ..tracking.branching import chi2_quantile
 __all__ = ["GroupTracker", "assign"]
 
 DIM = 3
+#: members covering this fraction of the group's area are the whole object
+COMPLETE = 0.9
+#: per frame the group's area decays by this factor towards its members'
+AREA_DECAY = 0.98
 
 
 def assign(sequence: np.ndarray, segment: np.ndarray, index: np.ndarray) -> list[int]:
@@ -60,6 +65,7 @@ class Sequence:
     length: int = 1
     window: list = field(default_factory=list)
     segment: int | None = None
+    offset: np.ndarray | None = None  # centroid minus the group's centre, while a member
 
 
 @dataclass
@@ -71,6 +77,7 @@ class Group:
     misses: int = 0
     frames_detected: int = 0
     held: int = 0
+    area: float = 0.0  # members' area the object is known to cover
 
 
 def _features(z: np.ndarray) -> np.ndarray:
@@ -308,6 +315,7 @@ class GroupTracker:
                 (stay if s.length <= c["order"] + 1 or near else leaving).append(s)
             g.sequences = stay
         for s in leaving:
+            s.offset = None
             shared = s.state.copy()
             shared[:, 0] = 0.0
             self.groups.append(Group(self.next_group, shared, [s], z_all[s.segment, 4:8].copy()))
@@ -355,18 +363,15 @@ class GroupTracker:
     def _merge(self) -> list[tuple[int, int]]:
         c = self.c
         merged = []
-        margin = c["gate_margin"]
 
         def mature(g: Group) -> bool:
             return any(s.length > c["order"] + 1 for s in g.sequences)
 
-        def touches(a: np.ndarray, b: np.ndarray) -> bool:
-            return bool(
-                a[0] - margin <= b[2]
-                and b[0] <= a[2] + margin
-                and a[1] - margin <= b[3]
-                and b[1] <= a[3] + margin
-            )
+        def gap(a: np.ndarray, b: np.ndarray) -> float:
+            return max(b[0] - a[2], a[0] - b[2], b[1] - a[3], a[1] - b[3], 0.0)
+
+        def extent(b: np.ndarray) -> float:
+            return max(b[2] - b[0], b[3] - b[1]) + 1.0
 
         i = 0
         while i < len(self.groups):
@@ -374,11 +379,17 @@ class GroupTracker:
             while j < len(self.groups):
                 a, b = self.groups[i], self.groups[j]
                 agree = math.hypot(*(a.shared[:, 1] - b.shared[:, 1])) <= c["velocity_tolerance"]
-                if touches(a.bbox, b.bbox) and mature(a) and mature(b) and agree:
+                reach = max(c["gate_margin"], c["cohesion"] * min(extent(a.bbox), extent(b.bbox)))
+                if gap(a.bbox, b.bbox) <= reach and mature(a) and mature(b) and agree:
                     self.groups.pop(j)
                     merged.append((b.id, a.id))
                     na, nb = len(a.sequences), len(b.sequences)
                     a.shared[:, 1:] = (na * a.shared[:, 1:] + nb * b.shared[:, 1:]) / (na + nb)
+                    keep_b = a.area == 0.0 and b.area > 0.0
+                    for s in a.sequences if keep_b else b.sequences:
+                        s.offset = None
+                    if keep_b:
+                        a.area = b.area
                     a.sequences.extend(b.sequences)
                     a.bbox = self._union(a.bbox, b.bbox)
                     a.frames_detected = max(a.frames_detected, b.frames_detected)
@@ -389,11 +400,31 @@ class GroupTracker:
             i += 1
         return merged
 
+    @staticmethod
+    def _member_centre(g: Group, members: list[Sequence], z_all: np.ndarray) -> np.ndarray:
+        """Members covering the object: their area-weighted centroid, offsets recorded; a
+        fragment missing: the members' centroids minus their offsets."""
+        area = np.array([z_all[s.segment, 3] for s in members])
+        pos = np.array([s.state[:, 0] for s in members])
+        total = float(area.sum())
+        complete = total >= COMPLETE * g.area
+        g.area = max(total, AREA_DECAY * g.area)
+        known = [k for k, s in enumerate(members) if s.offset is not None]
+        if not complete and known:
+            off = np.array([members[k].offset for k in known])
+            centre = (area[known, None] * (pos[known] - off)).sum(axis=0) / area[known].sum()
+        else:
+            centre = (area[:, None] * pos).sum(axis=0) / total
+        for s in members:
+            if complete or s.offset is None:
+                s.offset = s.state[:, 0] - centre
+        return centre
+
     def _report(self, z_all, seg_group, seg_seq, seg_member) -> np.ndarray:
         rows = []
         for g in self.groups:
-            members = 0
-            wx = wy = w = ax = ay = aw = 0.0
+            members = []
+            ax = ay = aw = 0.0
             for s in g.sequences:
                 if s.segment is None:
                     continue
@@ -405,17 +436,15 @@ class GroupTracker:
                 aw += area
                 if self._is_member(g, s):
                     seg_member[r] = True
-                    members += 1
-                    wx += area * s.state[0, 0]
-                    wy += area * s.state[1, 0]
-                    w += area
-            if members > 0:
+                    members.append(s)
+            if members:
                 g.frames_detected += 1
-            if w > 0:
-                centre = (wx / w, wy / w)
+                centre = self._member_centre(g, members, z_all)
             elif aw > 0:
-                centre = (ax / aw, ay / aw)
+                centre = np.array([ax / aw, ay / aw])
             else:
-                centre = (0.5 * (g.bbox[0] + g.bbox[2]), 0.5 * (g.bbox[1] + g.bbox[3]))
-            rows.append([g.id, *centre, g.shared[0, 1], g.shared[1, 1], members, g.frames_detected])
+                centre = np.array([0.5 * (g.bbox[0] + g.bbox[2]), 0.5 * (g.bbox[1] + g.bbox[3])])
+            rows.append(
+                [g.id, *centre, g.shared[0, 1], g.shared[1, 1], len(members), g.frames_detected]
+            )
         return np.array(rows, dtype=float).reshape(-1, 7)
