@@ -5,7 +5,7 @@ what is left; Rust and its twin agree."""
 from __future__ import annotations
 
 import numpy as np
-from test_stage2 import CONFIG, OFFSETS, obj, run_both
+from test_stage2 import OFFSETS, obj, run_both
 
 V = np.array([1.5, 0.5])
 START = np.array([10.0, 20.0])

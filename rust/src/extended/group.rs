@@ -152,13 +152,13 @@ impl Group {
             let Some(r) = s.segment else { continue };
             let area = segments[r].area;
             total += area;
-            for axis in 0..2 {
-                plain[axis] += area * s.state[axis][0];
+            for (axis, p) in plain.iter_mut().enumerate() {
+                *p += area * s.state[axis][0];
             }
             if let Some(offset) = s.offset {
                 known_area += area;
-                for axis in 0..2 {
-                    known[axis] += area * (s.state[axis][0] - offset[axis]);
+                for (axis, k) in known.iter_mut().enumerate() {
+                    *k += area * (s.state[axis][0] - offset[axis]);
                 }
             }
         }
