@@ -33,8 +33,10 @@ class DetectedObject:
     -----
     ``score`` is the path length Σ ``|v|`` τ (pixels) travelled over the frames in which the object
     was detected (it had at least one fragment sequence longer than ν + 1 moving with the
-    group): an object seen longer and moving faster ranks higher, moving background being
-    assumed slower than the object (the source's Remark 1).
+    group), capped by the net displacement between its first and last detected centres: an
+    object seen longer and moving faster ranks higher, moving background being assumed slower
+    than the object (the source's Remark 1); a still object whose centre jitters (texture,
+    merging clutter) or a short-lived one gains no score from its noisy velocity.
     Method page :doc:`/methods/extended_objects`, §3.4.
 
     Examples

@@ -362,8 +362,13 @@ class MovingObjectDetector:
         return _ranked(out)
 
     def _score(self, track: pd.DataFrame) -> float:
-        """Path length travelled while detected: Σ |v| τ over the detected frames (pixels)."""
-        return float(np.hypot(track["vx"], track["vy"]).sum() * self._dt)
+        """Path length travelled while detected, Σ |v| τ over the detected frames, capped by
+        the net displacement between the first and last detected centres (pixels)."""
+        if track.empty:
+            return 0.0
+        path = float(np.hypot(track["vx"], track["vy"]).sum() * self._dt)
+        x, y = track["x"].to_numpy(), track["y"].to_numpy()
+        return min(path, float(np.hypot(x[-1] - x[0], y[-1] - y[0])))
 
     def _point_objects(self) -> list[DetectedObject]:
         tracks = self._core.tracks()
@@ -482,9 +487,10 @@ def detect_moving_objects(
     Returns
     -------
     list of DetectedObject
-        Best first: by score, the path length Σ ``|v|`` τ travelled while detected (an object
-        seen longer and moving faster ranks higher: moving background is assumed slower than
-        the object, the source's Remark 1), then by frames detected.
+        Best first: by score, the path length Σ ``|v|`` τ travelled while detected, capped by
+        the net displacement of the centre (an object seen longer and moving faster and
+        steadier ranks higher: moving background is assumed slower than the object, the
+        source's Remark 1), then by frames detected.
 
     Raises
     ------

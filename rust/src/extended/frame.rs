@@ -7,41 +7,49 @@ const FULL_MEDIAN_PIXELS: usize = 65536;
 
 /// Mean over a `width` × `width` box centred on each pixel of an `h` × `w` row-major image,
 /// edges repeated (the box spans `width / 2` before and `width − 1 − width / 2` after): per
-/// output row, a column sum then a row sum over the edge-padded column sums, each summing its
-/// `width` terms in order (one allocation, no index arithmetic in the inner loops).
+/// output row, a column sum of `width` image rows, then a row sum over the edge-padded column
+/// sums times `1 / width²`, each summing its terms in order (two passes over a row-long,
+/// cache-resident buffer per output row for `width` ≤ 3; one allocation besides the output).
 pub fn box_smooth(image: &[f64], h: usize, w: usize, width: usize) -> Vec<f64> {
     if width <= 1 {
         return image.to_vec();
     }
     let lo = width / 2;
-    let clamp = |i: usize, n: usize| i.saturating_sub(lo).min(n - 1);
-    let scale = (width * width) as f64;
+    let inv = 1.0 / (width * width) as f64;
     let mut out = vec![0.0; h * w];
-    let mut column = vec![0.0; w];
     let mut padded = vec![0.0; w + width - 1];
-    for i in 0..h {
-        column.copy_from_slice(&image[clamp(i, h) * w..][..w]);
-        for k in 1..width {
-            let src = &image[clamp(i + k, h) * w..][..w];
-            for (c, s) in column.iter_mut().zip(src) {
-                *c += s;
-            }
-        }
-        padded[..lo].fill(column[0]);
-        padded[lo..lo + w].copy_from_slice(&column);
-        padded[lo + w..].fill(column[w - 1]);
-        let row = &mut out[i * w..(i + 1) * w];
-        row.copy_from_slice(&padded[..w]);
-        for k in 1..width {
-            for (o, s) in row.iter_mut().zip(&padded[k..k + w]) {
-                *o += s;
-            }
-        }
-        for o in row.iter_mut() {
-            *o /= scale;
-        }
+    for (i, row) in out.chunks_exact_mut(w).enumerate() {
+        sum_scaled(&mut padded[lo..lo + w], width, 1.0, |k| {
+            &image[(i + k).saturating_sub(lo).min(h - 1) * w..][..w]
+        });
+        let (first, last) = (padded[lo], padded[lo + w - 1]);
+        padded[..lo].fill(first);
+        padded[lo + w..].fill(last);
+        sum_scaled(row, width, inv, |k| &padded[k..k + w]);
     }
     out
+}
+
+/// `dst = (term(0) + term(1) + … + term(n − 1)) · scale` element-wise, summed in order, for
+/// n ≥ 2: the first three terms and the scaling share a pass (x · 1.0 is exact).
+fn sum_scaled<'a>(dst: &mut [f64], n: usize, scale: f64, term: impl Fn(usize) -> &'a [f64]) {
+    let (a, b) = (term(0), term(1));
+    let first = if n <= 3 { scale } else { 1.0 };
+    if n == 2 {
+        for ((d, x), y) in dst.iter_mut().zip(a).zip(b) {
+            *d = (x + y) * first;
+        }
+    } else {
+        for (((d, x), y), z) in dst.iter_mut().zip(a).zip(b).zip(term(2)) {
+            *d = (x + y + z) * first;
+        }
+    }
+    for k in 3..n {
+        let s = if k + 1 == n { scale } else { 1.0 };
+        for (d, x) in dst.iter_mut().zip(term(k)) {
+            *d = (*d + x) * s;
+        }
+    }
 }
 
 /// Median of the image (of every 4th row and column beyond 65536 pixels); the mean of the

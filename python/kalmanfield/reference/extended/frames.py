@@ -10,7 +10,8 @@ __all__ = ["background_level", "box_smooth"]
 
 def box_smooth(image: np.ndarray, width: int) -> np.ndarray:
     """Mean over a width × width box centred on each pixel (edges repeated): column sums,
-    then row sums, each term in order."""
+    then row sums, each term in order, times 1 / width² (the Rust kernel multiplies by the
+    reciprocal, not divides)."""
     if width == 1:
         return image
     lo = width // 2
@@ -22,7 +23,7 @@ def box_smooth(image: np.ndarray, width: int) -> np.ndarray:
     out = rows[:, 0:w].copy()
     for k in range(1, width):
         out += rows[:, k : k + w]
-    out /= width * width
+    out *= 1.0 / (width * width)
     return out
 
 
