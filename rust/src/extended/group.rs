@@ -108,9 +108,12 @@ impl Group {
 
     /// Step 7, (3.5): the shared derivatives become the mean of the confirmed sequences'
     /// own ones, each weighted by its precision 1/P_kk (a sequence just restarted at a
-    /// fragment's new segment knows little of the velocity and counts little) — over those whose velocity lies within `velocity_tolerance` of the previous
-    /// shared velocity when there are any (a spot of the background that fell into the gate
-    /// does not drag the group), over all otherwise.
+    /// fragment's new segment knows little of the velocity and counts little) — over those
+    /// whose velocity lies within `velocity_tolerance` of the previous shared velocity when
+    /// there are any (a spot of the background that fell into the gate does not drag the
+    /// group), over all otherwise. A group detected before keeps its derivatives while all
+    /// its sequences are restarted ones (none longer than ν + 1): the object's velocity
+    /// outlives its fragments' sequences.
     pub fn refresh_shared(&mut self, config: &GroupConfig) {
         let previous = velocity(&self.shared);
         let near: Vec<&Sequence> = self
@@ -123,7 +126,8 @@ impl Group {
         } else {
             near
         };
-        if chosen.is_empty() {
+        let restarted = chosen.iter().all(|s| s.length <= config.order + 1);
+        if chosen.is_empty() || (restarted && self.frames_detected > 0) {
             return;
         }
         for axis in 0..2 {

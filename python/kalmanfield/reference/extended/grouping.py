@@ -211,8 +211,9 @@ class GroupTracker:
             if math.hypot(*(s.state[:, 1] - previous)) <= c["velocity_tolerance"]
         ]
         chosen = near or g.sequences
-        if not chosen:
-            return
+        restarted = all(s.length <= c["order"] + 1 for s in chosen)
+        if not chosen or (restarted and g.frames_detected > 0):
+            return  # the object's velocity outlives its fragments' restarted sequences
         for k in range(1, c["order"] + 1):
             # each sequence weighted by its precision 1/P_kk
             w = np.array([1.0 / np.maximum(s.cov[:, k, k], np.finfo(float).tiny) for s in chosen])
