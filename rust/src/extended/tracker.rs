@@ -186,8 +186,9 @@ impl GroupTracker {
             .map(|g| (g.id, g.predicted_box(dt)))
             .collect();
         let chosen = self.variants_chosen(segments);
-        self.apply_assignment(segments, &chosen);
-        self.refresh_groups(segments);
+        let (merged, hidden) = self.occlusions(segments, &chosen);
+        self.apply_assignment(segments, &chosen, &merged, &hidden);
+        self.refresh_groups(&hidden);
         self.split_groups(segments);
         self.start_new(segments, &predicted, &mut answer);
         answer.merged = self.merge_groups();
@@ -232,11 +233,53 @@ impl GroupTracker {
             .collect()
     }
 
-    /// Steps 7–8: updates the confirmed sequences, drops the others.
+    /// Occlusions: a group of an object (detected before, moving) without a confirmed
+    /// sequence is *hidden* when the predicted centroid of one of its sequences lies in the box
+    /// of a segment confirmed by a group of another velocity; that segment is *merged* (two
+    /// objects in one segment). Returns (merged per segment, hidden per group).
+    fn occlusions(
+        &self,
+        segments: &[Measurement],
+        chosen: &[(usize, usize, usize, f64, usize)],
+    ) -> (Vec<bool>, Vec<bool>) {
+        let filters = self.filters();
+        let mut merged = vec![false; segments.len()];
+        let mut hidden = vec![false; self.groups.len()];
+        let mut confirmed = vec![false; self.groups.len()];
+        for &(g, ..) in chosen {
+            confirmed[g] = true;
+        }
+        for (b, group) in self.groups.iter().enumerate() {
+            let v = velocity(&group.shared);
+            if confirmed[b]
+                || group.frames_detected == 0
+                || v[0].hypot(v[1]) <= self.config.min_speed
+            {
+                continue;
+            }
+            for s in &group.sequences {
+                let c = filters.predict(s, &group.shared).centre;
+                for &(a, _, r, _, _) in chosen {
+                    let other = distance(velocity(&self.groups[a].shared), v)
+                        > self.config.velocity_tolerance;
+                    if other && in_box(segments[r].bbox, c[0], c[1], 0.0) {
+                        merged[r] = true;
+                        hidden[b] = true;
+                    }
+                }
+            }
+        }
+        (merged, hidden)
+    }
+
+    /// Steps 7–8: updates the confirmed sequences (a sequence on a merged segment coasts: the
+    /// segment measures neither object), drops the others (those of a hidden group coast).
     fn apply_assignment(
         &mut self,
         segments: &[Measurement],
         chosen: &[(usize, usize, usize, f64, usize)],
+        merged: &[bool],
+        hidden: &[bool],
     ) {
         let config = self.config.clone();
         let filters = Filters {
@@ -251,20 +294,30 @@ impl GroupTracker {
         }
         for &(g, i, r, value, dof) in chosen {
             let s = &mut self.groups[g].sequences[i];
-            filters.update(s, &segments[r], (value, dof));
+            if merged[r] {
+                filters.coast(s);
+            } else {
+                filters.update(s, &segments[r], (value, dof));
+            }
             s.segment = Some(r);
         }
-        for group in &mut self.groups {
-            group.sequences.retain(|s| s.segment.is_some());
+        for (group, &hidden) in self.groups.iter_mut().zip(hidden) {
+            if hidden {
+                group.sequences.iter_mut().for_each(|s| filters.coast(s));
+            } else {
+                group.sequences.retain(|s| s.segment.is_some());
+            }
         }
     }
 
     /// Step 7 (3.5) per group, its box (held at the object's extent while fragments are
-    /// missing, see `Group::hold`), its misses; groups missed too long die.
-    fn refresh_groups(&mut self, segments: &[Measurement]) {
+    /// missing, see `Group::hold`; a coasting sequence counts with its moved box), its
+    /// misses; groups missed too long die (hidden ones after `max_misses` or 2N frames,
+    /// whichever is more).
+    fn refresh_groups(&mut self, hidden: &[bool]) {
         let config = self.config.clone();
         for group in &mut self.groups {
-            if group.sequences.is_empty() {
+            if group.sequences.iter().all(|s| s.segment.is_none()) {
                 group.misses += 1;
                 let v = velocity(&group.shared);
                 for (k, shift) in [v[0], v[1], v[0], v[1]].iter().enumerate() {
@@ -278,13 +331,23 @@ impl GroupTracker {
             let mut boxes = group
                 .sequences
                 .iter()
-                .filter_map(|s| s.segment.map(|r| segments[r].bbox));
+                .filter(|s| s.segment.is_some())
+                .map(|s| s.bbox);
             if let Some(first) = boxes.next() {
                 let seen = boxes.fold(first, union);
                 group.hold(seen, predicted, config.memory);
             }
         }
-        self.groups.retain(|g| g.misses <= config.max_misses);
+        let hidden_limit = config.max_misses.max(2 * config.memory);
+        let mut hidden = hidden.iter();
+        self.groups.retain(|g| {
+            let limit = if hidden.next() == Some(&true) {
+                hidden_limit
+            } else {
+                config.max_misses
+            };
+            g.misses <= limit
+        });
     }
 
     /// A confirmed sequence longer than ν + 1 whose own velocity lies beyond
