@@ -249,19 +249,22 @@ impl GroupTracker {
         for &(g, ..) in chosen {
             confirmed[g] = true;
         }
+        // an object: detected in N frames at least, moving
+        let object = |g: &Group| {
+            let v = velocity(&g.shared);
+            g.frames_detected >= self.config.memory && v[0].hypot(v[1]) > self.config.min_speed
+        };
         for (b, group) in self.groups.iter().enumerate() {
-            let v = velocity(&group.shared);
-            if confirmed[b]
-                || group.frames_detected == 0
-                || v[0].hypot(v[1]) <= self.config.min_speed
-            {
+            if confirmed[b] || !object(group) {
                 continue;
             }
+            let v = velocity(&group.shared);
             for s in &group.sequences {
                 let c = filters.predict(s, &group.shared).centre;
                 for &(a, _, r, _, _) in chosen {
-                    let other = distance(velocity(&self.groups[a].shared), v)
-                        > self.config.velocity_tolerance;
+                    let taker = &self.groups[a];
+                    let other = object(taker)
+                        && distance(velocity(&taker.shared), v) > self.config.velocity_tolerance;
                     if other && in_box(segments[r].bbox, c[0], c[1], 0.0) {
                         merged[r] = true;
                         hidden[b] = true;

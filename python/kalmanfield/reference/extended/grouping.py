@@ -329,15 +329,22 @@ class GroupTracker:
         merged = [False] * len(z_all)
         hidden = [False] * len(self.groups)
         confirmed = {gi for gi, _ in chosen}
-        for b, g in enumerate(self.groups):
+
+        def is_object(g: Group) -> bool:  # detected in N frames at least, moving
             v = g.shared[:, 1]
-            if b in confirmed or g.frames_detected == 0 or math.hypot(v[0], v[1]) <= c["min_speed"]:
+            return g.frames_detected >= c["memory"] and math.hypot(v[0], v[1]) > c["min_speed"]
+
+        for b, g in enumerate(self.groups):
+            if b in confirmed or not is_object(g):
                 continue
+            v = g.shared[:, 1]
             for s in g.sequences:
                 centre = self._predict(s, g.shared)[0]
                 for a, r in chosen:
+                    taker = self.groups[a]
                     other = (
-                        math.hypot(*(self.groups[a].shared[:, 1] - v)) > c["velocity_tolerance"]
+                        is_object(taker)
+                        and math.hypot(*(taker.shared[:, 1] - v)) > c["velocity_tolerance"]
                     )
                     box = z_all[r, 4:8]
                     if (
