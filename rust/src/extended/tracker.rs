@@ -1,7 +1,8 @@
 //! The stage-2 tracker, frame by frame (SPEC §3.4 steps 4–10): assignment of the frame's
 //! segments to the live sequences of every group (one joint greedy assignment, so two
-//! crossing objects compete for the segments), Kalman updates, shared derivatives, dropped
-//! and new sequences, new groups, group merges, and the per-frame answer.
+//! crossing objects compete for the segments), occlusions (an object hidden in another's
+//! segment coasts), Kalman updates, shared derivatives, dropped and new sequences, new groups,
+//! group merges, and the per-frame answer.
 
 use super::assignment::{assign, Variant};
 use super::config::GroupConfig;
