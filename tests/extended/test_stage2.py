@@ -206,7 +206,7 @@ def test_objects_meeting_head_on_keep_their_ids_and_twin_agrees():
     segment again when they part; the taker of the merged segment coasts too."""
     frames = [np.array(head_on(t), dtype=float) for t in range(20)]
     ids, parted = set(), 0
-    for t, (a, (group, sequence, member, groups, merged)) in enumerate(run_both(frames)):
+    for t, (a, (group, sequence, member, groups, _merged)) in enumerate(run_both(frames)):
         np.testing.assert_array_equal(a["segment_group"], group)
         np.testing.assert_array_equal(a["segment_sequence"], sequence)
         np.testing.assert_allclose(a["groups"], groups, rtol=1e-10, atol=1e-10)
