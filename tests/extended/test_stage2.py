@@ -217,7 +217,7 @@ def test_objects_meeting_head_on_keep_their_ids_and_twin_agrees():
             assert len(ids) == 1 and set(next(iter(ids))) <= set(groups[:, 0].astype(int))
     assert parted == 7  # both detected in every frame after they part
     assert len(ids) == 1  # the same two ids before and after the merge
-    (first, second), = ids
+    ((first, second),) = ids
     assert first != second
 
 

@@ -347,11 +347,7 @@ class GroupTracker:
                         and math.hypot(*(taker.shared[:, 1] - v)) > c["velocity_tolerance"]
                     )
                     box = z_all[r, 4:8]
-                    if (
-                        other
-                        and box[0] <= centre[0] <= box[2]
-                        and box[1] <= centre[1] <= box[3]
-                    ):
+                    if other and box[0] <= centre[0] <= box[2] and box[1] <= centre[1] <= box[3]:
                         merged[r] = True
                         hidden[b] = True
         return merged, hidden
