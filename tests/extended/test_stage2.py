@@ -67,6 +67,7 @@ def run_both(frames, config=CONFIG):
     for z in frames:
         a = rust.step(np.ascontiguousarray(z))
         b = twin.step(z)
+        assert list(a["hidden"]) == twin.hidden
         yield a, b
 
 
@@ -204,9 +205,14 @@ def head_on(t: int) -> list[list[float]]:
 def test_objects_meeting_head_on_keep_their_ids_and_twin_agrees():
     """Occlusion (§3.4): the object hidden in the other's segment coasts and takes its own
     segment again when they part; the taker of the merged segment coasts too."""
-    frames = [np.array(head_on(t), dtype=float) for t in range(20)]
+    rust, twin = _core.GroupTracker(**CONFIG), TwinTracker(CONFIG)
     ids, parted = set(), 0
-    for t, (a, (group, sequence, member, groups, _merged)) in enumerate(run_both(frames)):
+    for t in range(20):
+        z = np.array(head_on(t), dtype=float)
+        a = rust.step(z)
+        group, sequence, member, groups, _ = twin.step(z)
+        assert list(a["hidden"]) == twin.hidden
+        assert len(twin.hidden) == (len(group) == 1)  # one object hidden while they merge
         np.testing.assert_array_equal(a["segment_group"], group)
         np.testing.assert_array_equal(a["segment_sequence"], sequence)
         np.testing.assert_allclose(a["groups"], groups, rtol=1e-10, atol=1e-10)

@@ -48,6 +48,8 @@ pub struct FrameAnswer {
     pub groups: Vec<GroupReport>,
     /// (absorbed group, group it joined) of this frame's merges, in order.
     pub merged: Vec<(u64, u64)>,
+    /// Ids of the groups hidden in this frame by another object's segment (occlusion).
+    pub hidden: Vec<u64>,
 }
 
 impl GroupTracker {
@@ -179,6 +181,7 @@ impl GroupTracker {
             segment_member: vec![false; m],
             groups: Vec::new(),
             merged: Vec::new(),
+            hidden: Vec::new(),
         };
         let dt = self.config.dt;
         let predicted: Vec<(u64, [f64; 4])> = self
@@ -188,6 +191,13 @@ impl GroupTracker {
             .collect();
         let chosen = self.variants_chosen(segments);
         let (merged, hidden) = self.occlusions(segments, &chosen);
+        answer.hidden = self
+            .groups
+            .iter()
+            .zip(&hidden)
+            .filter(|(_, &h)| h)
+            .map(|(g, _)| g.id)
+            .collect();
         self.apply_assignment(segments, &chosen, &merged, &hidden);
         self.refresh_groups(&hidden);
         self.split_groups(segments);

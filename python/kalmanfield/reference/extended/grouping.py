@@ -99,6 +99,8 @@ class GroupTracker:
         self.groups: list[Group] = []
         self.next_group = 0
         self.next_sequence = 0
+        #: ids of the groups hidden in the last frame (the Rust answer's ``hidden``)
+        self.hidden: list[int] = []
 
     def seed(self, segments: np.ndarray, vx: float, vy: float, length: int = 1) -> int:
         """A group at `segments` with the shared velocity (vx, vy); its sequences count
@@ -277,6 +279,7 @@ class GroupTracker:
                 flat.append((gi, si))
         chosen = assign(np.array(seqs), np.array(segs), np.array(index))
         merged, hidden = self._occlusions(z_all, [(flat[seqs[k]][0], segs[k]) for k in chosen])
+        self.hidden = [g.id for g, h in zip(self.groups, hidden) if h]
         # steps 7-8
         for g in self.groups:
             for s in g.sequences:
