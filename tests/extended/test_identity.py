@@ -5,7 +5,10 @@ scene (counted here, independently of motmetrics, which the benchmark uses)."""
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
+import pandas as pd
 import pytest
 
 import kalmanfield as kf
@@ -77,3 +80,20 @@ def test_each_target_keeps_one_id(scene_of, seed):
         assert len(set(found)) == 1, (target, seen)  # no id switch
         ids |= set(found)
     assert len(ids) == 2  # two objects, two ids
+
+
+def test_pickle_mid_occlusion_resumes_exactly():
+    """Pickled while one target is hidden in the other's segment (coasting sequences kept)."""
+    scene = head_on_scene(0)
+    a = kf.MovingObjectDetector(noise_std=1.0, dt=0.1)
+    for f in scene.frames[:9]:
+        a.update(f)
+    b = pickle.loads(pickle.dumps(a))
+    for f in scene.frames[9:]:
+        a.update(f)
+        b.update(f)
+    got, want = b.objects(), a.objects()
+    assert [o.id for o in got] == [o.id for o in want]
+    for g, w in zip(got, want):
+        pd.testing.assert_frame_equal(g.track, w.track)
+        pd.testing.assert_frame_equal(g.fragments, w.fragments)
