@@ -244,10 +244,10 @@ impl GroupTracker {
             .collect()
     }
 
-    /// Occlusions: a group of an object (detected before, moving) without a confirmed
-    /// sequence is *hidden* when the predicted centroid of one of its sequences lies in the box
-    /// of a segment confirmed by a group of another velocity; that segment is *merged* (two
-    /// objects in one segment). Returns (merged per segment, hidden per group).
+    /// Occlusions: an object (a group detected in N frames at least, moving) without a
+    /// confirmed sequence is *hidden* when the predicted centroid of one of its sequences lies
+    /// in the box of a segment confirmed by a group of another velocity; that segment is
+    /// *merged* (two objects in one segment). Returns (merged per segment, hidden per group).
     fn occlusions(
         &self,
         segments: &[Measurement],
@@ -273,9 +273,8 @@ impl GroupTracker {
             for s in &group.sequences {
                 let c = filters.predict(s, &group.shared).centre;
                 for &(a, _, r, _, _) in chosen {
-                    let taker = &self.groups[a];
-                    let other = object(taker)
-                        && distance(velocity(&taker.shared), v) > self.config.velocity_tolerance;
+                    let other = distance(velocity(&self.groups[a].shared), v)
+                        > self.config.velocity_tolerance;
                     if other && in_box(segments[r].bbox, c[0], c[1], 0.0) {
                         merged[r] = true;
                         hidden[b] = true;

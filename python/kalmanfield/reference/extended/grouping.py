@@ -325,9 +325,9 @@ class GroupTracker:
         return seg_group, seg_seq, seg_member, groups, merged
 
     def _occlusions(self, z_all, chosen: list[tuple[int, int]]) -> tuple[list[bool], list[bool]]:
-        """(merged per segment, hidden per group): a detected, moving group without a
-        confirmed sequence whose sequence's predicted centroid lies in the box of a segment
-        confirmed (chosen: (group, segment) pairs) by a group of another velocity."""
+        """(merged per segment, hidden per group): an object (detected in N frames at least,
+        moving) without a confirmed sequence whose sequence's predicted centroid lies in the box
+        of a segment confirmed (chosen: (group, segment) pairs) by a group of another velocity."""
         c = self.c
         merged = [False] * len(z_all)
         hidden = [False] * len(self.groups)
@@ -344,11 +344,7 @@ class GroupTracker:
             for s in g.sequences:
                 centre = self._predict(s, g.shared)[0]
                 for a, r in chosen:
-                    taker = self.groups[a]
-                    other = (
-                        is_object(taker)
-                        and math.hypot(*(taker.shared[:, 1] - v)) > c["velocity_tolerance"]
-                    )
+                    other = math.hypot(*(self.groups[a].shared[:, 1] - v)) > c["velocity_tolerance"]
                     box = z_all[r, 4:8]
                     if other and box[0] <= centre[0] <= box[2] and box[1] <= centre[1] <= box[3]:
                         merged[r] = True
