@@ -245,9 +245,10 @@ impl GroupTracker {
     }
 
     /// Occlusions: an object (a group detected in N frames at least, moving) without a
-    /// confirmed sequence is *hidden* when the predicted centroid of one of its sequences lies
-    /// in the box of a segment confirmed by a group of another velocity; that segment is
-    /// *merged* (two objects in one segment). Returns (merged per segment, hidden per group).
+    /// confirmed sequence is *hidden* by a segment confirmed by a group of another velocity
+    /// when the predicted centroid of one of its sequences lies in the segment's box or that
+    /// box covers half of the object's predicted box; that segment is *merged* (two objects
+    /// in one segment). Returns (merged per segment, hidden per group).
     fn occlusions(
         &self,
         segments: &[Measurement],
@@ -270,15 +271,21 @@ impl GroupTracker {
                 continue;
             }
             let v = velocity(&group.shared);
-            for s in &group.sequences {
-                let c = filters.predict(s, &group.shared).centre;
-                for &(a, _, r, _, _) in chosen {
-                    let other = distance(velocity(&self.groups[a].shared), v)
-                        > self.config.velocity_tolerance;
-                    if other && in_box(segments[r].bbox, c[0], c[1], 0.0) {
-                        merged[r] = true;
-                        hidden[b] = true;
-                    }
+            let centres: Vec<[f64; 2]> = group
+                .sequences
+                .iter()
+                .map(|s| filters.predict(s, &group.shared).centre)
+                .collect();
+            let predicted = group.predicted_box(self.config.dt);
+            for &(a, _, r, _, _) in chosen {
+                if distance(velocity(&self.groups[a].shared), v) <= self.config.velocity_tolerance {
+                    continue;
+                }
+                let z = segments[r].bbox;
+                let inside = centres.iter().any(|c| in_box(z, c[0], c[1], 0.0));
+                if inside || covers_half(z, predicted) {
+                    merged[r] = true;
+                    hidden[b] = true;
                 }
             }
         }
@@ -534,6 +541,13 @@ impl GroupTracker {
             });
         }
     }
+}
+
+/// Whether box `a` covers at least half of box `b`'s area (boxes as x0, y0, x1, y1).
+fn covers_half(a: [f64; 4], b: [f64; 4]) -> bool {
+    let w = a[2].min(b[2]) - a[0].max(b[0]);
+    let h = a[3].min(b[3]) - a[1].max(b[1]);
+    w >= 0.0 && h >= 0.0 && w * h >= 0.5 * (b[2] - b[0]) * (b[3] - b[1])
 }
 
 /// Finite measurements with a positive area and an ordered box.

@@ -79,6 +79,13 @@ def _features(z: np.ndarray) -> np.ndarray:
     return np.array([z[2], math.log(z[3])])
 
 
+def _covers_half(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether box a covers at least half of box b's area (x0, y0, x1, y1)."""
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    return bool(w >= 0.0 and h >= 0.0 and w * h >= 0.5 * (b[2] - b[0]) * (b[3] - b[1]))
+
+
 def _propagate(F: np.ndarray, P: np.ndarray, Q: np.ndarray, d: int) -> np.ndarray:
     return F[:d, :d] @ P[:d, :d] @ F[:d, :d].T + Q[:d, :d]
 
@@ -326,8 +333,9 @@ class GroupTracker:
 
     def _occlusions(self, z_all, chosen: list[tuple[int, int]]) -> tuple[list[bool], list[bool]]:
         """(merged per segment, hidden per group): an object (detected in N frames at least,
-        moving) without a confirmed sequence whose sequence's predicted centroid lies in the box
-        of a segment confirmed (chosen: (group, segment) pairs) by a group of another velocity."""
+        moving) without a confirmed sequence, hidden by a segment confirmed (chosen: (group,
+        segment) pairs) by a group of another velocity: a sequence's predicted centroid lies in
+        the segment's box or the box covers half of the group's predicted box."""
         c = self.c
         merged = [False] * len(z_all)
         hidden = [False] * len(self.groups)
@@ -341,14 +349,16 @@ class GroupTracker:
             if b in confirmed or not is_object(g):
                 continue
             v = g.shared[:, 1]
-            for s in g.sequences:
-                centre = self._predict(s, g.shared)[0]
-                for a, r in chosen:
-                    other = math.hypot(*(self.groups[a].shared[:, 1] - v)) > c["velocity_tolerance"]
-                    box = z_all[r, 4:8]
-                    if other and box[0] <= centre[0] <= box[2] and box[1] <= centre[1] <= box[3]:
-                        merged[r] = True
-                        hidden[b] = True
+            centres = [self._predict(s, g.shared)[0] for s in g.sequences]
+            predicted = g.bbox + np.array([v[0], v[1]] * 2) * c["dt"]
+            for a, r in chosen:
+                if math.hypot(*(self.groups[a].shared[:, 1] - v)) <= c["velocity_tolerance"]:
+                    continue
+                box = z_all[r, 4:8]
+                inside = any(box[0] <= x <= box[2] and box[1] <= y <= box[3] for x, y in centres)
+                if inside or _covers_half(box, predicted):
+                    merged[r] = True
+                    hidden[b] = True
         return merged, hidden
 
     def _split(self, z_all) -> None:
