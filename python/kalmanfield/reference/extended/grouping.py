@@ -285,7 +285,9 @@ class GroupTracker:
                         incs.append((value, dof))
                 flat.append((gi, si))
         chosen = assign(np.array(seqs), np.array(segs), np.array(index))
-        merged, hidden = self._occlusions(z_all, [(flat[seqs[k]][0], segs[k]) for k in chosen])
+        merged_segment, hidden = self._occlusions(
+            z_all, [(flat[seqs[k]][0], segs[k]) for k in chosen]
+        )
         self.hidden = [g.id for g, h in zip(self.groups, hidden) if h]
         # steps 7-8
         for g in self.groups:
@@ -294,7 +296,7 @@ class GroupTracker:
         for k in chosen:
             gi, si = flat[seqs[k]]
             s = self.groups[gi].sequences[si]
-            if merged[segs[k]]:
+            if merged_segment[segs[k]]:
                 self._coast(s)
             else:
                 self._update(s, z_all[segs[k]], incs[k])
