@@ -16,6 +16,22 @@ import kalmanfield as kf
 N_FRAMES = 18
 
 
+def striped_scene(paths: list[np.ndarray], size: float, seed: int) -> kf.Scene:
+    """3-stripe rhombi of side `size` on the given paths, 80 × 80, SNR 5, P_f = 0.1."""
+    targets = [kf.Target(size=size, fragments=3, trajectory=p) for p in paths]
+    return kf.simulate_scene(
+        (80, 80),
+        N_FRAMES,
+        targets=targets,
+        snr=5.0,
+        p_false=0.1,
+        dt=0.1,
+        seed=seed,
+        still_objects=0,
+        moving_objects=0,
+    )
+
+
 def x_scene(seed: int) -> kf.Scene:
     """Two 3-stripe rhombi on X-shaped paths through (40, 40), there at frames 5 and 13."""
     t = np.arange(N_FRAMES)[:, None]
@@ -23,18 +39,7 @@ def x_scene(seed: int) -> kf.Scene:
         np.hstack([40 + 3.0 * (t - 5), 40 + 2.0 * (t - 5)]),
         np.hstack([40 - 3.0 * (t - 13), 40 + 2.0 * (t - 13)]),
     ]
-    targets = [kf.Target(size=10.0, fragments=3, trajectory=p) for p in paths]
-    return kf.simulate_scene(
-        (80, 80),
-        N_FRAMES,
-        targets=targets,
-        snr=5.0,
-        p_false=0.1,
-        dt=0.1,
-        seed=seed,
-        still_objects=0,
-        moving_objects=0,
-    )
+    return striped_scene(paths, 10.0, seed)
 
 
 def head_on_scene(seed: int) -> kf.Scene:
@@ -42,18 +47,7 @@ def head_on_scene(seed: int) -> kf.Scene:
     and make one segment for a few frames (occlusion, method page §3.4)."""
     t = np.arange(N_FRAMES)[:, None]
     paths = [np.hstack([14 + 3.0 * t, 40 + 0 * t]), np.hstack([66 - 3.0 * t, 40 + 0 * t])]
-    targets = [kf.Target(size=12.0, fragments=3, trajectory=p) for p in paths]
-    return kf.simulate_scene(
-        (80, 80),
-        N_FRAMES,
-        targets=targets,
-        snr=5.0,
-        p_false=0.1,
-        dt=0.1,
-        seed=seed,
-        still_objects=0,
-        moving_objects=0,
-    )
+    return striped_scene(paths, 12.0, seed)
 
 
 def matches(scene: kf.Scene, objects: list, radius: float = 4.0) -> dict[int, list[int]]:
