@@ -68,6 +68,7 @@ def run_both(frames, config=CONFIG):
     for z in frames:
         a = rust.step(np.ascontiguousarray(z))
         b = twin.step(z)
+        assert list(a["hidden"]) == twin.hidden
         yield a, b
 
 
@@ -188,6 +189,43 @@ def test_two_objects_crossing_keep_their_ids():
         assert len(set(g[:3])) == 1 and len(set(g[3:])) == 1 and g[0] != g[3]
         first = first or (g[0], g[3])
         assert (g[0], g[3]) == first
+
+
+def head_on(t: int) -> list[list[float]]:
+    """Two 7×7 objects on one line, 2 px/frame each way; one segment (union box, mean
+    centroid, summed area) while their centres lie within 8 px (frames 8–12)."""
+    xa, xb = 5.0 + 2.0 * t, 45.0 - 2.0 * t
+    if abs(xa - xb) <= 8.0:
+        z = blob(0.5 * (xa + xb), 20.0, half=3.0)
+        z[3] *= 2.0
+        z[4], z[6] = min(xa, xb) - 3.0, max(xa, xb) + 3.0
+        return [z]
+    return [blob(xa, 20.0, half=3.0), blob(xb, 20.0, half=3.0)]
+
+
+def test_objects_meeting_head_on_keep_their_ids_and_twin_agrees():
+    """Occlusion (§3.4): the object hidden in the other's segment coasts and takes its own
+    segment again when they part; the taker of the merged segment coasts too."""
+    rust, twin = _core.GroupTracker(**CONFIG), TwinTracker(CONFIG)
+    ids, parted = set(), 0
+    for t in range(20):
+        z = np.array(head_on(t), dtype=float)
+        a = rust.step(z)
+        group, sequence, member, groups, _ = twin.step(z)
+        assert list(a["hidden"]) == twin.hidden
+        assert len(twin.hidden) == (len(group) == 1)  # one object hidden while they merge
+        np.testing.assert_array_equal(a["segment_group"], group)
+        np.testing.assert_array_equal(a["segment_sequence"], sequence)
+        np.testing.assert_allclose(a["groups"], groups, rtol=1e-10, atol=1e-10)
+        if len(group) == 2 and member.all():
+            ids.add((int(group[0]), int(group[1])))
+            parted += t > 12
+        if len(group) == 1:  # both objects live through the merge
+            assert len(ids) == 1 and set(next(iter(ids))) <= set(groups[:, 0].astype(int))
+    assert parted == 7  # both detected in every frame after they part
+    assert len(ids) == 1  # the same two ids before and after the merge
+    ((first, second),) = ids
+    assert first != second
 
 
 def test_state_bytes_resume_exactly_and_refuse_corruption():

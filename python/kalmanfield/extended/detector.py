@@ -234,6 +234,7 @@ class MovingObjectDetector:
                     self._records.pop(int(absorbed))
                 )
         member = answer["segment_member"]
+        hidden = set(answer["hidden"].tolist())
         for row in answer["groups"]:
             gid = int(row[0])
             held = answer["segment_group"] == gid
@@ -243,6 +244,10 @@ class MovingObjectDetector:
                 # detected before, its fragments restructured: it stays detected (its image:
                 # the segments its group holds)
                 chosen = np.flatnonzero(held)
+            elif gid in self._records and gid in hidden:
+                # hidden in another object's segment: its predicted centre, no pixels of its own
+                self._records[gid].track.append([self._frame, *row[1:5]])
+                continue
             else:
                 continue
             rec = self._records.setdefault(gid, _Records())

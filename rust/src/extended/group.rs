@@ -32,6 +32,9 @@ pub(crate) const COMPLETE: f64 = 0.9;
 /// lost a fragment for good is whole again after a few frames).
 pub(crate) const AREA_DECAY: f64 = 0.98;
 
+/// Rounding slack (pixels) when box widths are compared.
+const WIDTH_TOLERANCE: f64 = 1e-9;
+
 pub(crate) fn velocity(state: &[Vector; 2]) -> [f64; 2] {
     [state[0][1], state[1][1]]
 }
@@ -71,9 +74,10 @@ impl Group {
     /// a pixel or more) than the previous box moved by the shared velocity (`predicted`), a fragment is missing, not
     /// the object: the box keeps the union of both, for at most `memory` frames in a row.
     pub fn hold(&mut self, seen: [f64; 4], predicted: [f64; 4], memory: usize) {
-        // boxes are in whole pixels: narrower means by one pixel at least
-        let smaller = seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0
-            || seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0;
+        // boxes are in whole pixels: narrower means by one pixel at least (up to rounding:
+        // the shifted box's width is a whole number ± 1 ulp-level errors)
+        let smaller = seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0 + WIDTH_TOLERANCE
+            || seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0 + WIDTH_TOLERANCE;
         if smaller && self.held < memory {
             self.bbox = union(seen, predicted);
             self.held += 1;

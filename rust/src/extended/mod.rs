@@ -1,7 +1,8 @@
 //! Extended objects made of moving fragments (SPEC §3.4, [K93] steps 4–10): stage 2 of the
 //! detector. An object is a group of segment sequences sharing its derivatives (velocity…);
 //! each frame the segments are assigned to the sequences of all groups by the quasi-optimal
-//! greedy rule, sequences without a segment are dropped, segments left alone start new
+//! greedy rule, sequences without a segment are dropped (those of an object hidden by another
+//! object's segment coast), segments left alone start new
 //! sequences in the group whose gate holds them (or new groups), and the sequences longer
 //! than ν + 1 with a similar non-zero velocity form the object's image.
 //!

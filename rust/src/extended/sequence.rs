@@ -155,6 +155,20 @@ impl Filters<'_> {
         }
     }
 
+    /// Kalman prediction without an update, with the sequence's own derivatives (its segment
+    /// measures it no more: merged with another object's, or the object is hidden); its box
+    /// moves by its velocity. Length and index window stay.
+    pub fn coast(&self, s: &mut Sequence) {
+        let d = self.d();
+        for axis in 0..2 {
+            let shift = s.state[axis][1] * self.config.dt;
+            s.bbox[axis] += shift;
+            s.bbox[axis + 2] += shift;
+            s.state[axis] = apply(&self.f, &s.state[axis], d);
+            s.cov[axis] = propagate(&self.f, &s.cov[axis], &self.q, d);
+        }
+    }
+
     /// The index increment of measurement `z` and its degrees of freedom ((3.4) + (3.6)).
     pub fn increment(&self, s: &Sequence, p: &Prediction, z: &Measurement) -> (f64, usize) {
         let pos = z.position();

@@ -137,6 +137,50 @@ fn crossing_objects_keep_their_groups() {
     }
 }
 
+/// Two 7×7 objects on one line, 2 px/frame each way: while their centres lie within 8 px
+/// they make one segment (union box, mean centroid, summed area), listed first otherwise.
+fn head_on(frame: usize) -> Vec<Measurement> {
+    let f = frame as f64;
+    let (xa, xb) = (5.0 + 2.0 * f, 45.0 - 2.0 * f);
+    if (xa - xb).abs() <= 8.0 {
+        let mut z = blob(0.5 * (xa + xb), 20.0, 3.0);
+        z.area *= 2.0;
+        z.bbox[0] = xa.min(xb) - 3.0;
+        z.bbox[2] = xa.max(xb) + 3.0;
+        vec![z]
+    } else {
+        vec![blob(xa, 20.0, 3.0), blob(xb, 20.0, 3.0)]
+    }
+}
+
+#[test]
+fn objects_meeting_head_on_keep_their_ids_through_the_merged_segment() {
+    let mut t = GroupTracker::new(config()).unwrap();
+    let mut ids = None;
+    let mut merged_frames = 0;
+    for frame in 0..20 {
+        let a = t.step(&head_on(frame)).unwrap();
+        if a.segment_group.len() == 1 {
+            // one object took the merged segment, the other is hidden, not lost
+            merged_frames += 1;
+            let (first, second) = ids.expect("the objects are known before they meet");
+            let live: Vec<i64> = a.groups.iter().map(|g| g.id as i64).collect();
+            assert!(
+                live.contains(&first) && live.contains(&second),
+                "frame {frame}"
+            );
+        } else if frame >= 2 {
+            let groups = (a.segment_group[0], a.segment_group[1]);
+            assert_ne!(groups.0, groups.1);
+            match ids {
+                None => ids = Some(groups),
+                Some(first) => assert_eq!(first, groups, "ids lost or switched at frame {frame}"),
+            }
+        }
+    }
+    assert_eq!(merged_frames, 5);
+}
+
 #[test]
 fn bytes_resume_exactly_and_corrupt_bytes_fail() {
     let scene = |frame: usize| {

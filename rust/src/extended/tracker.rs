@@ -1,7 +1,8 @@
 //! The stage-2 tracker, frame by frame (SPEC §3.4 steps 4–10): assignment of the frame's
 //! segments to the live sequences of every group (one joint greedy assignment, so two
-//! crossing objects compete for the segments), Kalman updates, shared derivatives, dropped
-//! and new sequences, new groups, group merges, and the per-frame answer.
+//! crossing objects compete for the segments), occlusions (an object hidden in another's
+//! segment coasts), Kalman updates, shared derivatives, dropped and new sequences, new groups,
+//! group merges, and the per-frame answer.
 
 use super::assignment::{assign, Variant};
 use super::config::GroupConfig;
@@ -48,6 +49,8 @@ pub struct FrameAnswer {
     pub groups: Vec<GroupReport>,
     /// (absorbed group, group it joined) of this frame's merges, in order.
     pub merged: Vec<(u64, u64)>,
+    /// Ids of the groups hidden in this frame by another object's segment (occlusion).
+    pub hidden: Vec<u64>,
 }
 
 impl GroupTracker {
@@ -180,6 +183,7 @@ impl GroupTracker {
             segment_member: vec![false; m],
             groups: Vec::new(),
             merged: Vec::new(),
+            hidden: Vec::new(),
         };
         let dt = self.config.dt;
         let predicted: Vec<(u64, [f64; 4])> = self
@@ -188,8 +192,16 @@ impl GroupTracker {
             .map(|g| (g.id, g.predicted_box(dt)))
             .collect();
         let chosen = self.variants_chosen(segments);
-        self.apply_assignment(segments, &chosen);
-        self.refresh_groups(segments);
+        let (merged, hidden) = self.occlusions(segments, &chosen);
+        answer.hidden = self
+            .groups
+            .iter()
+            .zip(&hidden)
+            .filter(|(_, &h)| h)
+            .map(|(g, _)| g.id)
+            .collect();
+        self.apply_assignment(segments, &chosen, &merged, &hidden);
+        self.refresh_groups(&hidden);
         self.split_groups(segments);
         self.start_new(segments, &predicted, &mut answer);
         answer.merged = self.merge_groups();
@@ -234,11 +246,62 @@ impl GroupTracker {
             .collect()
     }
 
-    /// Steps 7–8: updates the confirmed sequences, drops the others.
+    /// Occlusions: an object (a group detected in N frames at least, moving) without a
+    /// confirmed sequence is *hidden* by a segment confirmed by a group of another velocity
+    /// when the predicted centroid of one of its sequences lies in the segment's box or that
+    /// box covers half of the object's predicted box; that segment is *merged* (two objects
+    /// in one segment). Returns (merged per segment, hidden per group).
+    fn occlusions(
+        &self,
+        segments: &[Measurement],
+        chosen: &[(usize, usize, usize, f64, usize)],
+    ) -> (Vec<bool>, Vec<bool>) {
+        let filters = self.filters();
+        let mut merged = vec![false; segments.len()];
+        let mut hidden = vec![false; self.groups.len()];
+        let mut confirmed = vec![false; self.groups.len()];
+        for &(g, ..) in chosen {
+            confirmed[g] = true;
+        }
+        // an object: detected in N frames at least, moving
+        let object = |g: &Group| {
+            let v = velocity(&g.shared);
+            g.frames_detected >= self.config.memory && v[0].hypot(v[1]) > self.config.min_speed
+        };
+        for (b, group) in self.groups.iter().enumerate() {
+            if confirmed[b] || !object(group) {
+                continue;
+            }
+            let v = velocity(&group.shared);
+            let centres: Vec<[f64; 2]> = group
+                .sequences
+                .iter()
+                .map(|s| filters.predict(s, &group.shared).centre)
+                .collect();
+            let predicted = group.predicted_box(self.config.dt);
+            for &(a, _, r, _, _) in chosen {
+                if distance(velocity(&self.groups[a].shared), v) <= self.config.velocity_tolerance {
+                    continue;
+                }
+                let z = segments[r].bbox;
+                let inside = centres.iter().any(|c| in_box(z, c[0], c[1], 0.0));
+                if inside || covers_half(z, predicted) {
+                    merged[r] = true;
+                    hidden[b] = true;
+                }
+            }
+        }
+        (merged, hidden)
+    }
+
+    /// Steps 7–8: updates the confirmed sequences (a sequence on a merged segment coasts: the
+    /// segment measures neither object), drops the others (those of a hidden group coast).
     fn apply_assignment(
         &mut self,
         segments: &[Measurement],
         chosen: &[(usize, usize, usize, f64, usize)],
+        merged: &[bool],
+        hidden: &[bool],
     ) {
         let config = self.config.clone();
         let filters = Filters {
@@ -253,20 +316,30 @@ impl GroupTracker {
         }
         for &(g, i, r, value, dof) in chosen {
             let s = &mut self.groups[g].sequences[i];
-            filters.update(s, &segments[r], (value, dof));
+            if merged[r] {
+                filters.coast(s);
+            } else {
+                filters.update(s, &segments[r], (value, dof));
+            }
             s.segment = Some(r);
         }
-        for group in &mut self.groups {
-            group.sequences.retain(|s| s.segment.is_some());
+        for (group, &hidden) in self.groups.iter_mut().zip(hidden) {
+            if hidden {
+                group.sequences.iter_mut().for_each(|s| filters.coast(s));
+            } else {
+                group.sequences.retain(|s| s.segment.is_some());
+            }
         }
     }
 
     /// Step 7 (3.5) per group, its box (held at the object's extent while fragments are
-    /// missing, see `Group::hold`), its misses; groups missed too long die.
-    fn refresh_groups(&mut self, segments: &[Measurement]) {
+    /// missing, see `Group::hold`; a coasting sequence counts with its moved box), its
+    /// misses; groups missed too long die (hidden ones after `max_misses` or 2N frames,
+    /// whichever is more).
+    fn refresh_groups(&mut self, hidden: &[bool]) {
         let config = self.config.clone();
         for group in &mut self.groups {
-            if group.sequences.is_empty() {
+            if group.sequences.iter().all(|s| s.segment.is_none()) {
                 group.misses += 1;
                 let v = velocity(&group.shared);
                 for (k, shift) in [v[0], v[1], v[0], v[1]].iter().enumerate() {
@@ -280,13 +353,23 @@ impl GroupTracker {
             let mut boxes = group
                 .sequences
                 .iter()
-                .filter_map(|s| s.segment.map(|r| segments[r].bbox));
+                .filter(|s| s.segment.is_some())
+                .map(|s| s.bbox);
             if let Some(first) = boxes.next() {
                 let seen = boxes.fold(first, union);
                 group.hold(seen, predicted, config.memory);
             }
         }
-        self.groups.retain(|g| g.misses <= config.max_misses);
+        let hidden_limit = config.max_misses.max(2 * config.memory);
+        let mut hidden = hidden.iter();
+        self.groups.retain(|g| {
+            let limit = if hidden.next() == Some(&true) {
+                hidden_limit
+            } else {
+                config.max_misses
+            };
+            g.misses <= limit
+        });
     }
 
     /// A confirmed sequence longer than ν + 1 whose own velocity lies beyond
@@ -475,6 +558,13 @@ impl GroupTracker {
             });
         }
     }
+}
+
+/// Whether box `a` covers at least half of box `b`'s area (boxes as x0, y0, x1, y1).
+fn covers_half(a: [f64; 4], b: [f64; 4]) -> bool {
+    let w = a[2].min(b[2]) - a[0].max(b[0]);
+    let h = a[3].min(b[3]) - a[1].max(b[1]);
+    w >= 0.0 && h >= 0.0 && w * h >= 0.5 * (b[2] - b[0]) * (b[3] - b[1])
 }
 
 /// Finite measurements with a positive area and an ordered box.

@@ -167,8 +167,8 @@ impl PyGroupTracker {
     }
 
     /// One frame's segments, an (m, 8) float64 array; returns a dict of segment_group,
-    /// segment_sequence, segment_member (per segment) and groups ((G, 7): id, x, y, vx, vy,
-    /// members, frames_detected).
+    /// segment_sequence, segment_member (per segment), groups ((G, 7): id, x, y, vx, vy,
+    /// members, frames_detected), merged ((k, 2): absorbed, into) and hidden (ids).
     fn step<'py>(
         &mut self,
         py: Python<'py>,
@@ -210,6 +210,8 @@ impl PyGroupTracker {
         let n = a.merged.len();
         let merged: Bound<'py, PyArray2<i64>> = PyArray1::from_vec(py, merged).reshape([n, 2])?;
         out.set_item("merged", merged)?;
+        let hidden: Vec<i64> = a.hidden.iter().map(|&g| g as i64).collect();
+        out.set_item("hidden", PyArray1::from_vec(py, hidden))?;
         Ok(out)
     }
 

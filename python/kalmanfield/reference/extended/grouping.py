@@ -25,6 +25,8 @@ DIM = 3
 COMPLETE = 0.9
 #: per frame the group's area decays by this factor towards its members'
 AREA_DECAY = 0.98
+#: rounding slack (pixels) when box widths are compared
+WIDTH_TOLERANCE = 1e-9
 
 
 def assign(sequence: np.ndarray, segment: np.ndarray, index: np.ndarray) -> list[int]:
@@ -84,6 +86,13 @@ def _features(z: np.ndarray) -> np.ndarray:
     return np.array([z[2], math.log(z[3])])
 
 
+def _covers_half(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether box a covers at least half of box b's area (x0, y0, x1, y1)."""
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    return bool(w >= 0.0 and h >= 0.0 and w * h >= 0.5 * (b[2] - b[0]) * (b[3] - b[1]))
+
+
 def _propagate(F: np.ndarray, P: np.ndarray, Q: np.ndarray, d: int) -> np.ndarray:
     return F[:d, :d] @ P[:d, :d] @ F[:d, :d].T + Q[:d, :d]
 
@@ -104,6 +113,8 @@ class GroupTracker:
         self.groups: list[Group] = []
         self.next_group = 0
         self.next_sequence = 0
+        #: ids of the groups hidden in the last frame (the Rust answer's ``hidden``)
+        self.hidden: list[int] = []
 
     def seed(self, segments: np.ndarray, vx: float, vy: float, length: int = 1) -> int:
         """A group at `segments` with the shared velocity (vx, vy); its sequences count
@@ -147,6 +158,15 @@ class GroupTracker:
         hi = z[6:8] - s.bbox[2:] - shift
         kept = np.minimum(np.abs(lo), np.abs(hi)) <= 1.0
         return np.where(kept, (0.5 * (hi - lo)) ** 2, 0.0)
+
+    def _coast(self, s: Sequence) -> None:
+        """Prediction without update (own derivatives); the box moves by the velocity."""
+        d = self.c["order"] + 1
+        shift = s.state[:, 1] * self.c["dt"]
+        s.bbox = s.bbox + np.concatenate([shift, shift])
+        for axis in range(2):
+            s.state[axis, :d] = self.F[:d, :d] @ s.state[axis, :d]
+            s.cov[axis, :d, :d] = _propagate(self.F, s.cov[axis], self.Q, d)
 
     def _joined(self, s: Sequence) -> bool:
         return s.length > self.c["order"]
@@ -233,8 +253,8 @@ class GroupTracker:
         """A box narrower or lower than the predicted one: a fragment is missing, the box
         keeps the union of both (at most N frames in a row)."""
         smaller = (
-            seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0
-            or seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0
+            seen[2] - seen[0] <= predicted[2] - predicted[0] - 1.0 + WIDTH_TOLERANCE
+            or seen[3] - seen[1] <= predicted[3] - predicted[1] - 1.0 + WIDTH_TOLERANCE
         )
         if smaller and g.held < self.c["memory"]:
             g.bbox, g.held = self._union(seen, predicted), g.held + 1
@@ -273,6 +293,10 @@ class GroupTracker:
                         incs.append((value, dof))
                 flat.append((gi, si))
         chosen = assign(np.array(seqs), np.array(segs), np.array(index))
+        merged_segment, hidden = self._occlusions(
+            z_all, [(flat[seqs[k]][0], segs[k]) for k in chosen]
+        )
+        self.hidden = [g.id for g, h in zip(self.groups, hidden) if h]
         # steps 7-8
         for g in self.groups:
             for s in g.sequences:
@@ -280,12 +304,19 @@ class GroupTracker:
         for k in chosen:
             gi, si = flat[seqs[k]]
             s = self.groups[gi].sequences[si]
-            self._update(s, z_all[segs[k]], incs[k])
+            if merged_segment[segs[k]]:
+                self._coast(s)
+            else:
+                self._update(s, z_all[segs[k]], incs[k])
             s.segment = segs[k]
+        for g, h in zip(self.groups, hidden):
+            if h:
+                for s in g.sequences:
+                    self._coast(s)
+            else:
+                g.sequences = [s for s in g.sequences if s.segment is not None]
         for g in self.groups:
-            g.sequences = [s for s in g.sequences if s.segment is not None]
-        for g in self.groups:
-            if not g.sequences:
+            if all(s.segment is None for s in g.sequences):
                 g.misses += 1
                 v = g.shared[:, 1]
                 g.bbox = g.bbox + np.array([v[0], v[1], v[0], v[1]]) * c["dt"]
@@ -293,17 +324,52 @@ class GroupTracker:
             g.misses = 0
             moved = g.bbox + np.array([g.shared[0, 1], g.shared[1, 1]] * 2) * c["dt"]
             self._refresh_shared(g)
-            boxes = [z_all[s.segment, 4:8] for s in g.sequences]
+            boxes = [s.bbox for s in g.sequences if s.segment is not None]
             box = boxes[0]
             for b in boxes[1:]:
                 box = self._union(box, b)
             self._hold(g, box, moved)
-        self.groups = [g for g in self.groups if g.misses <= c["max_misses"]]
+        hidden_limit = max(c["max_misses"], 2 * c["memory"])
+        self.groups = [
+            g
+            for g, h in zip(self.groups, hidden)
+            if g.misses <= (hidden_limit if h else c["max_misses"])
+        ]
         self._split(z_all)
         self._start_new(z_all, seg_group, seg_seq, predicted)
         merged = self._merge()
         groups = self._report(z_all, seg_group, seg_seq, seg_member)
         return seg_group, seg_seq, seg_member, groups, merged
+
+    def _occlusions(self, z_all, chosen: list[tuple[int, int]]) -> tuple[list[bool], list[bool]]:
+        """(merged per segment, hidden per group): an object (detected in N frames at least,
+        moving) without a confirmed sequence, hidden by a segment confirmed (chosen: (group,
+        segment) pairs) by a group of another velocity: a sequence's predicted centroid lies in
+        the segment's box or the box covers half of the group's predicted box."""
+        c = self.c
+        merged = [False] * len(z_all)
+        hidden = [False] * len(self.groups)
+        confirmed = {gi for gi, _ in chosen}
+
+        def is_object(g: Group) -> bool:  # detected in N frames at least, moving
+            v = g.shared[:, 1]
+            return g.frames_detected >= c["memory"] and math.hypot(v[0], v[1]) > c["min_speed"]
+
+        for b, g in enumerate(self.groups):
+            if b in confirmed or not is_object(g):
+                continue
+            v = g.shared[:, 1]
+            centres = [self._predict(s, g.shared)[0] for s in g.sequences]
+            predicted = g.bbox + np.array([v[0], v[1]] * 2) * c["dt"]
+            for a, r in chosen:
+                if math.hypot(*(self.groups[a].shared[:, 1] - v)) <= c["velocity_tolerance"]:
+                    continue
+                box = z_all[r, 4:8]
+                inside = any(box[0] <= x <= box[2] and box[1] <= y <= box[3] for x, y in centres)
+                if inside or _covers_half(box, predicted):
+                    merged[r] = True
+                    hidden[b] = True
+        return merged, hidden
 
     def _split(self, z_all) -> None:
         c = self.c
@@ -319,7 +385,11 @@ class GroupTracker:
             s.offset = None
             shared = s.state.copy()
             shared[:, 0] = 0.0
-            self.groups.append(Group(self.next_group, shared, [s], z_all[s.segment, 4:8].copy()))
+            if s.segment is None:
+                box = np.array([s.state[0, 0], s.state[1, 0]] * 2)
+            else:
+                box = z_all[s.segment, 4:8].copy()
+            self.groups.append(Group(self.next_group, shared, [s], box))
             self.next_group += 1
 
     def _start_new(self, z_all, seg_group, seg_seq, predicted) -> None:
