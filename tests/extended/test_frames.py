@@ -30,6 +30,9 @@ def test_rust_equals_twin(h, w, width, seed):
     )
     np.testing.assert_allclose(box_mean(image, width), box_smooth(image, width), atol=1e-12)
     assert _core.extended_level(image) == background_level(image)
+    out = np.full((h, w), np.nan)  # into a buffer: every value written, the same values
+    assert _core.extended_smooth(image, width, out) is out
+    np.testing.assert_array_equal(out, _core.extended_smooth(image, width))
 
 
 @pytest.mark.parametrize("shape", [(300, 300), (257, 256), (5, 4)])
@@ -41,6 +44,15 @@ def test_level_subsamples_large_frames_like_the_twin(shape):
 def test_bad_kernel_input():
     with pytest.raises(ValueError, match="width"):
         _core.extended_smooth(np.zeros((4, 4)), 0)
+    image = np.zeros((4, 4))
+    with pytest.raises(ValueError, match="shape"):
+        _core.extended_smooth(image, 3, np.zeros((4, 5)))
+    with pytest.raises(ValueError, match="not the image"):
+        _core.extended_smooth(image, 3, image)
+    with pytest.raises(ValueError, match="C-contiguous"):
+        _core.extended_smooth(image, 3, np.zeros((4, 8))[:, ::2])
+    with pytest.raises(TypeError):
+        _core.extended_smooth(image, 3, np.zeros((4, 4), np.float32))
     with pytest.raises(ValueError, match="NaN"):
         _core.extended_level(np.full((3, 3), np.nan))
 

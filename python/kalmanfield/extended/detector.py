@@ -112,6 +112,7 @@ class MovingObjectDetector:
         self._options = DetectorOptions.build(options)
         self._check = FrameCheck()
         self._frame = 0
+        self._smoothed: np.ndarray | None = None  # scratch for the smoothed frame
         self._core: Any = None  # _core.GroupTracker or BranchingTracker, made at frame 0
         self._groups: Any = None  # "auto" staged: the seeded stage-2 GroupTracker
         self._records: dict[int, _Records] = {}
@@ -165,7 +166,9 @@ class MovingObjectDetector:
                 raise ValueError(
                     "the noise std estimated from the first frame is 0: give noise_std"
                 )
-        smoothed = box_smooth(image, self._options.smooth)
+        if self._smoothed is None or self._smoothed.shape != image.shape:
+            self._smoothed = np.empty(image.shape)  # reused: a new 512² buffer faults 2 MiB in
+        smoothed = box_smooth(image, self._options.smooth, self._smoothed)
         if self._options.background_width:  # a textured background: subtract its local level
             smoothed = smoothed - box_mean(smoothed, self._options.background_width)
         threshold = self._threshold
@@ -411,6 +414,7 @@ class MovingObjectDetector:
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
+        state["_smoothed"] = None  # a scratch buffer
         for key in ("_core", "_groups"):
             if isinstance(state.get(key), _core.GroupTracker):
                 state[key] = ("group", bytes(state[key].state_bytes()))

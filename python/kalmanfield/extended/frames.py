@@ -53,12 +53,13 @@ class FrameCheck:
         return out
 
 
-def box_smooth(image: np.ndarray, width: int) -> np.ndarray:
-    """Mean over a width × width box centred on each pixel (edges repeated); Rust kernel,
+def box_smooth(image: np.ndarray, width: int, out: np.ndarray | None = None) -> np.ndarray:
+    """Mean over a width × width box centred on each pixel (edges repeated), into `out` when
+    given (a float64 buffer of the image's shape, reused frame after frame); Rust kernel,
     twin :func:`kalmanfield.reference.extended.box_smooth`."""
     if width == 1:
         return image
-    return _core.extended_smooth(np.ascontiguousarray(image, dtype=np.float64), width)
+    return _core.extended_smooth(np.ascontiguousarray(image, dtype=np.float64), width, out)
 
 
 def background_level(smoothed: np.ndarray) -> float:

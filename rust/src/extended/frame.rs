@@ -11,12 +11,20 @@ const FULL_MEDIAN_PIXELS: usize = 65536;
 /// sums times `1 / width²`, each summing its terms in order (two passes over a row-long,
 /// cache-resident buffer per output row for `width` ≤ 3; one allocation besides the output).
 pub fn box_smooth(image: &[f64], h: usize, w: usize, width: usize) -> Vec<f64> {
+    let mut out = vec![0.0; h * w];
+    box_smooth_into(image, h, w, width, &mut out);
+    out
+}
+
+/// `box_smooth` into `out` (`h * w` values): a buffer reused frame after frame is written
+/// without the page faults of a fresh allocation (most of the cost of a new 512² output).
+pub fn box_smooth_into(image: &[f64], h: usize, w: usize, width: usize, out: &mut [f64]) {
     if width <= 1 {
-        return image.to_vec();
+        out.copy_from_slice(image);
+        return;
     }
     let lo = width / 2;
     let inv = 1.0 / (width * width) as f64;
-    let mut out = vec![0.0; h * w];
     let mut padded = vec![0.0; w + width - 1];
     for (i, row) in out.chunks_exact_mut(w).enumerate() {
         sum_scaled(&mut padded[lo..lo + w], width, 1.0, |k| {
@@ -27,7 +35,6 @@ pub fn box_smooth(image: &[f64], h: usize, w: usize, width: usize) -> Vec<f64> {
         padded[lo + w..].fill(last);
         sum_scaled(row, width, inv, |k| &padded[k..k + w]);
     }
-    out
 }
 
 /// `dst = (term(0) + term(1) + … + term(n − 1)) · scale` element-wise, summed in order, for

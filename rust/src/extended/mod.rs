@@ -23,6 +23,6 @@ mod tests;
 
 pub use assignment::{assign, Variant};
 pub use config::{GroupConfig, MAX_ORDER};
-pub use frame::{background_level, box_smooth};
+pub use frame::{background_level, box_smooth, box_smooth_into};
 pub use sequence::Measurement;
 pub use tracker::{FrameAnswer, GroupReport, GroupTracker};

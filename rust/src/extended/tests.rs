@@ -254,6 +254,9 @@ fn box_smooth_and_level_by_hand() {
     // pixel (0, 0): rows {0, 0, 1} × columns {0, 0, 1} → (2·(2·1 + 2) + (2·4 + 5)) / 9
     assert!((out[0] - (2.0 * (2.0 + 2.0) + (8.0 + 5.0)) / 9.0).abs() < 1e-15);
     assert_eq!(box_smooth(&image, 2, 3, 1), image.to_vec());
+    let mut out = [f64::NAN; 6];
+    box_smooth_into(&image, 2, 3, 3, &mut out);
+    assert_eq!(out.to_vec(), box_smooth(&image, 2, 3, 3));
     assert_eq!(background_level(&image, 2, 3), 3.5);
     assert_eq!(background_level(&image[..5], 1, 5), 3.0);
 }

@@ -1,9 +1,10 @@
 //! Binding of stage 2 of the detector (SPEC §3.4): `kalmanfield._core.GroupTracker` and
 //! `kalmanfield._core.extended_assign`.
 
-use super::convert::contiguous;
+use super::convert::{contiguous, contiguous_mut};
 use crate::extended::{
-    assign, background_level, box_smooth, GroupConfig, GroupTracker, Measurement, Variant,
+    assign, background_level, box_smooth, box_smooth_into, GroupConfig, GroupTracker, Measurement,
+    Variant,
 };
 use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
@@ -20,12 +21,15 @@ pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(extended_assign, m)?)
 }
 
-/// Box mean of `width` × `width` (edges repeated) of a C-contiguous float64 image.
+/// Box mean of `width` × `width` (edges repeated) of a C-contiguous float64 image; into
+/// `out` (C-contiguous float64 of the image's shape, not the image) when given.
 #[pyfunction]
+#[pyo3(signature = (image, width, out=None))]
 fn extended_smooth<'py>(
     py: Python<'py>,
     image: PyReadonlyArray2<'py, f64>,
     width: usize,
+    out: Option<Bound<'py, PyArray2<f64>>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     if !(1..=1 << 16).contains(&width) {
         return Err(PyValueError::new_err(format!(
@@ -37,8 +41,24 @@ fn extended_smooth<'py>(
         return Err(PyValueError::new_err("image must not be empty"));
     }
     let values = contiguous(&image, "image")?;
-    let out = py.detach(|| box_smooth(values, h, w, width));
-    PyArray1::from_vec(py, out).reshape([h, w])
+    let Some(out) = out else {
+        let smoothed = py.detach(|| box_smooth(values, h, w, width));
+        return PyArray1::from_vec(py, smoothed).reshape([h, w]);
+    };
+    if out.shape() != [h, w] {
+        return Err(PyValueError::new_err(format!(
+            "out must have the image's shape ({h}, {w}), got {:?}",
+            out.shape()
+        )));
+    }
+    {
+        let mut written = out
+            .try_readwrite()
+            .map_err(|_| PyValueError::new_err("out must be writable and not the image"))?;
+        let dst = contiguous_mut(&mut written, "out")?;
+        py.detach(|| box_smooth_into(values, h, w, width, dst));
+    }
+    Ok(out)
 }
 
 /// Median of a C-contiguous float64 image without NaN (of every 4th row and column beyond
