@@ -29,7 +29,7 @@ pub(crate) struct Group {
 pub(crate) const COMPLETE: f64 = 0.9;
 
 /// Per frame the group's area decays by this factor towards its members' (an object that
-/// lost a fragment for good is whole again after a few frames).
+/// lost a third of its area for good is whole again after some 15 frames).
 pub(crate) const AREA_DECAY: f64 = 0.98;
 
 /// Rounding slack (pixels) when box widths are compared.
@@ -71,8 +71,9 @@ impl Group {
     }
 
     /// The box after a frame whose segments span `seen`: when `seen` is narrower or lower (by
-    /// a pixel or more) than the previous box moved by the shared velocity (`predicted`), a fragment is missing, not
-    /// the object: the box keeps the union of both, for at most `memory` frames in a row.
+    /// a pixel or more) than the previous box moved by the shared velocity (`predicted`), a
+    /// fragment is missing, not the object: the box keeps the union of both, for at most
+    /// `memory` frames in a row.
     pub fn hold(&mut self, seen: [f64; 4], predicted: [f64; 4], memory: usize) {
         // boxes are in whole pixels: narrower means by one pixel at least (up to rounding:
         // the shifted box's width is a whole number ± 1 ulp-level errors)

@@ -4,8 +4,8 @@ objects*, §3.4): same rules, same loop order and tie-breaks, so both give the s
 A configuration is a dict with the fields of the Rust ``GroupConfig`` (order, dt,
 position_std, process_std, amplitude_std, log_area_std, feature_drift, confidence, memory,
 initial_speed_std, gate_margin, min_speed, velocity_tolerance, cohesion, max_misses,
-seed_groups). A
-frame's segments are an (m, 8) array: x, y, amplitude, area, bbox x0, y0, x1, y1.
+seed_groups). A frame's segments are an (m, 8) array: x, y, amplitude, area, bbox x0, y0,
+x1, y1.
 """
 
 from __future__ import annotations
