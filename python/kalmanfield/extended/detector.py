@@ -166,8 +166,8 @@ class MovingObjectDetector:
                 raise ValueError(
                     "the noise std estimated from the first frame is 0: give noise_std"
                 )
-        if self._smoothed is None or self._smoothed.shape != image.shape:
-            self._smoothed = np.empty(image.shape)  # reused: a new 512² buffer faults 2 MiB in
+        if self._smoothed is None:  # reused (every frame has the first one's shape): a new
+            self._smoothed = np.empty(image.shape)  # 512² array costs ~0.85 ms of page faults
         smoothed = box_smooth(image, self._options.smooth, self._smoothed)
         if self._options.background_width:  # a textured background: subtract its local level
             smoothed = smoothed - box_mean(smoothed, self._options.background_width)
